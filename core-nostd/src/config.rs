@@ -1,0 +1,100 @@
+//! Configuration of the localizer: plain values, fixed while the localizer runs.
+
+use crate::direct_sound::DirectSound;
+use crate::noisy_reference::NoiseMixing;
+use crate::reliability::Reliability;
+use crate::similarity::SimilarityMeasure;
+
+/// Which localization principle runs (appendix A `se.principle`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Method {
+    /// The similarity approach (thesis §5.1).
+    Similarity,
+    /// Frequency-domain intensity vector (§5.2.2).
+    Fdiv,
+    /// Time-domain intensity vector (§5.2.1).
+    Tdiv,
+}
+
+/// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or
+/// [`LocatorConfig::thesis`] (the published method) and change fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocatorConfig {
+    /// Localization principle.
+    pub method: Method,
+    /// Lower edge of the analysis band, Hz.
+    pub band_lo_hz: f32,
+    /// Upper edge of the analysis band, Hz.
+    pub band_hi_hz: f32,
+    /// Number of peaks N_p (1…[`crate::MAX_PEAKS`]).
+    pub num_peaks: usize,
+    /// Absolute magnitude threshold for peaks on |X_omni| (0 disables).
+    pub peak_threshold: f32,
+    /// Fill up to N_p with the strongest non-peak bins (§5.1.2).
+    pub fill_peaks: bool,
+    /// Similarity measure.
+    pub measure: SimilarityMeasure,
+    /// Noisy reference features: mixing rule.
+    pub noise_mixing: NoiseMixing,
+    /// Noisy reference features: lowest SNR set, dB.
+    pub snr_from_db: f32,
+    /// Noisy reference features: highest SNR set, dB.
+    pub snr_to_db: f32,
+    /// Noisy reference features: SNR step, dB.
+    pub snr_step_db: f32,
+    /// Mean-free features (appendix A `meanFree`).
+    pub mean_free: bool,
+    /// Reliability weighting of the similarity curve.
+    pub reliability: Reliability,
+    /// Direct-sound emphasis of peaks (not in the thesis).
+    pub direct_sound: DirectSound,
+    /// Omni mean-square power below which a frame is silent (b = 0).
+    pub silence_power: f32,
+    /// |sample| at or above which the input counts as clipped.
+    pub clip_level: f32,
+    /// Confidence factor applied to frames with clipped samples.
+    pub clipped_confidence: f32,
+    /// TDIV smoothing pole a (eq. 5.40).
+    pub tdiv_pole: f32,
+    /// FDIV smoothing pole a of the per-bin intensity.
+    pub fdiv_pole: f32,
+}
+
+impl LocatorConfig {
+    /// The thesis configuration (§5.1 and appendix A defaults, conventions of `docs/algorithm.md`):
+    /// 5° ideal table, 10 peaks in 200–4000 Hz, Euclidean similarity, magnitude-mixed noisy references
+    /// −30…40 dB, curve-variance reliability weighting with K = 1, no direct-sound weighting.
+    #[must_use]
+    pub const fn thesis() -> Self {
+        Self {
+            method: Method::Similarity,
+            band_lo_hz: 200.0,
+            band_hi_hz: 4000.0,
+            num_peaks: 10,
+            peak_threshold: 0.0,
+            fill_peaks: true,
+            measure: SimilarityMeasure::Euclidean,
+            noise_mixing: NoiseMixing::Magnitude,
+            snr_from_db: -30.0,
+            snr_to_db: 40.0,
+            snr_step_db: 10.0,
+            mean_free: false,
+            reliability: Reliability { enabled: true, speed: 1.0, v_max: 0.02 },
+            direct_sound: DirectSound::OFF,
+            silence_power: 1e-10,
+            clip_level: 0.999,
+            clipped_confidence: 0.5,
+            tdiv_pole: 0.9,
+            fdiv_pole: 0.95,
+        }
+    }
+}
+
+impl Default for LocatorConfig {
+    /// The product configuration: the thesis method plus the measured improvements
+    /// (see the README's accuracy table for what each one buys).
+    fn default() -> Self {
+        Self::thesis()
+    }
+}

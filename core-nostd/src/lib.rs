@@ -1,0 +1,75 @@
+//! # cma-core — similarity localizer for a coincident microphone array
+//!
+//! `no_std`, heap-free implementation of the *similarity approach* of Kreuzer's diploma thesis
+//! ("Development and Evaluation of Source Localization Algorithms for Coincident Microphone Arrays",
+//! chapters 4–5) for the CMA1 array: channel 0 omni, channels 1–3 cardioids looking at 0°, 120°, 240°.
+//!
+//! The pipeline, one module per stage:
+//!
+//! 1. [`decimator`] — half-band anti-alias cascade, 48 kHz → 12 kHz (44.1 → 11.025, 16 kHz passes);
+//! 2. [`framer`] — 512-sample analysis frames with a hop of 256;
+//! 3. [`spectrum`] — Hamming window from a table, `microfft` real FFT, Nyquist bin unpacked;
+//! 4. [`peak_picker`] — the N_p strongest peaks of |X_omni| in a band (thesis §5.1.2, with the fill rule);
+//! 5. [`features`] — |X_card| / |X_omni| at the peaks (eq. 5.7);
+//! 6. [`reference_table`] — reference features in flash (ideal model or measured, per frequency);
+//! 7. [`noisy_reference`] — reference features mixed with omni noise at a set of SNRs (eq. 5.16–5.20);
+//! 8. [`similarity`] — Euclidean / cosine / L_p similarity and the mean similarity curve;
+//! 9. [`reliability`] — curve-variance confidence and the adaptive one-pole filter on the curve (eq. 5.31);
+//! 10. [`interpolation`] — wrapped argmax with parabolic interpolation (eq. 4.23–4.29).
+//!
+//! [`locator::Locator`] ties them together: feed it blocks of interleaved 4-channel samples (as a DMA
+//! handler receives them) and it calls back once per analysis frame with an [`estimate::Estimate`].
+//! The intensity-vector baselines [`tdiv`] and [`fdiv`] sit behind the same interface.
+//!
+//! "Frame" has two meanings in this crate, as in the literature: a *sample frame* is one instant across the
+//! four channels (`[f32; 4]`), an *analysis frame* is a block of [`FRAME_LEN`] samples per channel.
+//! Each name says which one it means.
+#![no_std]
+#![deny(clippy::float_cmp_const)]
+
+pub mod angle;
+pub mod bformat;
+pub mod config;
+pub mod decimator;
+pub mod direct_sound;
+pub mod error;
+pub mod estimate;
+pub mod features;
+pub mod fdiv;
+pub mod framer;
+pub mod input_guard;
+pub mod interpolation;
+pub mod locator;
+pub mod noisy_reference;
+pub mod peak_picker;
+pub mod reference_table;
+pub mod reliability;
+pub mod similarity;
+pub mod spectrum;
+pub mod tables;
+pub mod tdiv;
+
+pub use config::{LocatorConfig, Method};
+pub use error::Error;
+pub use estimate::{Estimate, Flags};
+pub use locator::Locator;
+pub use reference_table::ReferenceTable;
+
+/// Number of input channels: omni, cardioid 0°, cardioid 120°, cardioid 240°.
+pub const CHANNELS: usize = 4;
+/// Number of cardioid channels (the feature dimension).
+pub const CARDIOIDS: usize = 3;
+/// Analysis frame length in samples at the analysis rate (thesis §5.1.1: the power of two ≤ 50 ms).
+pub const FRAME_LEN: usize = 512;
+/// Hop between analysis frames in samples at the analysis rate (50 % overlap).
+pub const HOP: usize = FRAME_LEN / 2;
+/// Number of spectral bins of a frame, DC to Nyquist inclusive.
+pub const NUM_BINS: usize = FRAME_LEN / 2 + 1;
+/// Largest number of spectral peaks per frame ([`LocatorConfig::num_peaks`]).
+pub const MAX_PEAKS: usize = 32;
+/// Largest number of azimuths in a reference table (a 1° grid).
+pub const MAX_AZIMUTHS: usize = 360;
+/// Largest number of SNR sets of the noisy reference features.
+pub const MAX_SNR_SETS: usize = 16;
+/// Look directions of the three cardioids, degrees counter-clockwise from cardioid 1.
+pub const CARDIOID_LOOK_DEG: [f32; CARDIOIDS] = [0.0, 120.0, 240.0];

@@ -1,0 +1,372 @@
+//! The localizer: sample frames in, one [`Estimate`] per analysis frame out.
+//!
+//! ```text
+//! [f32; 4] ─ InputGuard ─ Decimator ×4 ─ Framer ─┬─ Similarity: spectra → peaks → features → curve
+//!                                                 │               → reliability filter → argmax
+//!                                                 ├─ FDIV: spectra → per-bin intensity → circular mean
+//!                                                 └─ TDIV: RMS → B-format → one-pole → atan2
+//! ```
+//!
+//! The same code runs on the host (`host-sim`) and on the Cortex-M4F (`firmware`): feed it whatever
+//! block size the DMA delivers.
+
+use crate::angle::wrap_deg;
+use crate::config::{LocatorConfig, Method};
+use crate::decimator::{Decimator, DecimatorState};
+use crate::direct_sound::{DirectSound, OnsetState};
+use crate::error::Error;
+use crate::estimate::{Estimate, Flags};
+use crate::fdiv::{fdiv_process, FdivState};
+use crate::features::feature_from_powers;
+use crate::framer::Framer;
+use crate::input_guard::{InputGuard, InputGuardState};
+use crate::interpolation::argmax_parabolic;
+use crate::noisy_reference::NoisyReferences;
+use crate::peak_picker::{PeakPicker, Peaks};
+use crate::reference_table::ReferenceTable;
+use crate::reliability::{curve_variance, CurveFilter};
+use crate::similarity::CurveBuilder;
+use crate::spectrum::{power, windowed_spectrum};
+use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
+use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
+use microfft::Complex32;
+
+/// Per-frame diagnostics of the similarity method, for plots and studies (not needed to localize).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FrameDiagnostics {
+    /// Sample variance of the frame's similarity curve.
+    pub curve_variance: f32,
+    /// Number of usable peaks.
+    pub num_peaks: usize,
+    /// Mean direct-sound weight of the peaks (1 when the weighting is off).
+    pub mean_peak_weight: f32,
+}
+
+/// The localizer and all of its state (≈ 33 KB; place it in a `static` on the target).
+pub struct Locator<'t> {
+    config: LocatorConfig,
+    table: ReferenceTable<'t>,
+    decimator: Decimator,
+    guard: InputGuard,
+    picker: PeakPicker,
+    curves: CurveBuilder,
+    /// Frequency row of the reference table for each bin.
+    bin_rows: [u16; NUM_BINS],
+    /// Twice the decimator's time offset in input samples.
+    offset2: i64,
+
+    guard_state: InputGuardState,
+    dec_state: [DecimatorState; CHANNELS],
+    framer: Framer,
+    frame: [[f32; FRAME_LEN]; CHANNELS],
+    scratch: [f32; FRAME_LEN],
+    spectra: [[Complex32; NUM_BINS]; CHANNELS],
+    omni_power: [f32; NUM_BINS],
+    peaks: Peaks,
+    curve: [f32; MAX_AZIMUTHS],
+    filter: CurveFilter,
+    onset: OnsetState,
+    fdiv: FdivState,
+    tdiv: TdivState,
+    have_history: bool,
+    last_azimuth: f32,
+    diagnostics: FrameDiagnostics,
+}
+
+impl<'t> Locator<'t> {
+    /// A localizer for input at `input_rate` Hz with `config` and reference `table`.
+    pub fn new(config: LocatorConfig, table: ReferenceTable<'t>, input_rate: u32) -> Result<Self, Error> {
+        let decimator = Decimator::for_rate(input_rate)?;
+        let fs = decimator.output_rate() as f32;
+        let c = &config;
+        if !(c.band_lo_hz >= 0.0 && c.band_hi_hz > c.band_lo_hz && c.band_hi_hz <= fs / 2.0) {
+            return Err(Error::InvalidConfig("band: need 0 ≤ lo < hi ≤ analysis Nyquist"));
+        }
+        if c.num_peaks == 0 || c.num_peaks > MAX_PEAKS {
+            return Err(Error::InvalidConfig("num_peaks: 1..=32"));
+        }
+        let r = c.reliability;
+        if !(r.speed >= 0.0 && r.v_max > 0.0 && r.speed.is_finite() && r.v_max.is_finite()) {
+            return Err(Error::InvalidConfig("reliability: need K ≥ 0 and V_max > 0"));
+        }
+        if !(0.0..1.0).contains(&c.tdiv_pole) || !(0.0..1.0).contains(&c.fdiv_pole) {
+            return Err(Error::InvalidConfig("poles: need 0 ≤ a < 1"));
+        }
+        let d = c.direct_sound;
+        if !(d.directness_exponent >= 0.0 && d.onset_exponent >= 0.0)
+            || !(0.0..1.0).contains(&d.onset_pole)
+            || !(0.0..=1.0).contains(&d.onset_floor)
+        {
+            return Err(Error::InvalidConfig("direct_sound: exponents ≥ 0, 0 ≤ pole < 1, 0 ≤ floor ≤ 1"));
+        }
+        if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
+            return Err(Error::InvalidConfig("thresholds must be ≥ 0"));
+        }
+        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
+        let picker = PeakPicker {
+            lo_bin: bin_of(c.band_lo_hz).max(1),
+            hi_bin: bin_of(c.band_hi_hz).min(NUM_BINS - 2),
+            num_peaks: c.num_peaks,
+            min_power: c.peak_threshold * c.peak_threshold,
+            fill: c.fill_peaks,
+        };
+        let noisy = NoisyReferences::new(c.noise_mixing, c.snr_from_db, c.snr_to_db, c.snr_step_db)?;
+        let curves = CurveBuilder { measure: c.measure, noisy, mean_free: c.mean_free };
+        let mut bin_rows = [0u16; NUM_BINS];
+        for (k, row) in bin_rows.iter_mut().enumerate() {
+            *row = table.freq_index(crate::spectrum::bin_frequency(k, fs)) as u16;
+        }
+        let factor = decimator.factor();
+        let hold = (FRAME_LEN as u32 + 64) * factor;
+        Ok(Self {
+            config,
+            table,
+            decimator,
+            guard: InputGuard { clip_level: c.clip_level, hold_samples: hold },
+            picker,
+            curves,
+            bin_rows,
+            offset2: libm::round(2.0 * decimator.time_offset()) as i64,
+            guard_state: InputGuardState::default(),
+            dec_state: [DecimatorState::new(); CHANNELS],
+            framer: Framer::new(),
+            frame: [[0.0; FRAME_LEN]; CHANNELS],
+            scratch: [0.0; FRAME_LEN],
+            spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
+            omni_power: [0.0; NUM_BINS],
+            peaks: Peaks::default(),
+            curve: [0.0; MAX_AZIMUTHS],
+            filter: CurveFilter::new(),
+            onset: OnsetState::new(),
+            fdiv: FdivState::new(),
+            tdiv: TdivState::default(),
+            have_history: false,
+            last_azimuth: 0.0,
+            diagnostics: FrameDiagnostics::default(),
+        })
+    }
+
+    /// The configuration.
+    #[must_use]
+    pub fn config(&self) -> &LocatorConfig {
+        &self.config
+    }
+
+    /// The reference table.
+    #[must_use]
+    pub fn table(&self) -> &ReferenceTable<'t> {
+        &self.table
+    }
+
+    /// Input sample rate, Hz.
+    #[must_use]
+    pub fn input_rate(&self) -> u32 {
+        self.decimator.input_rate()
+    }
+
+    /// Analysis sample rate after decimation, Hz.
+    #[must_use]
+    pub fn analysis_rate(&self) -> u32 {
+        self.decimator.output_rate()
+    }
+
+    /// Input samples per analysis hop (the real-time deadline of one estimate).
+    #[must_use]
+    pub fn input_samples_per_hop(&self) -> usize {
+        HOP * self.decimator.factor() as usize
+    }
+
+    /// The last frame's unfiltered similarity curve over the table's azimuths.
+    #[must_use]
+    pub fn curve(&self) -> &[f32] {
+        &self.curve[..self.table.num_azimuths()]
+    }
+
+    /// The reliability-filtered similarity curve.
+    #[must_use]
+    pub fn filtered_curve(&self) -> &[f32] {
+        self.filter.current(self.table.num_azimuths())
+    }
+
+    /// Diagnostics of the last frame.
+    #[must_use]
+    pub fn diagnostics(&self) -> FrameDiagnostics {
+        self.diagnostics
+    }
+
+    /// Feeds a block of sample frames (channel order omni, card 0°, card 120°, card 240°; full scale ±1)
+    /// and calls `on_estimate` for every analysis frame completed within it.
+    pub fn process_block(&mut self, block: &[[f32; CHANNELS]], mut on_estimate: impl FnMut(&Estimate)) {
+        for x in block {
+            if let Some(e) = self.process_sample(*x) {
+                on_estimate(&e);
+            }
+        }
+    }
+
+    /// Feeds one sample frame; returns an estimate when it completes an analysis frame.
+    #[inline]
+    pub fn process_sample(&mut self, mut x: [f32; CHANNELS]) -> Option<Estimate> {
+        self.guard.process(&mut self.guard_state, &mut x);
+        let mut y = [0.0f32; CHANNELS];
+        let mut ready = false;
+        for ((out, st), v) in y.iter_mut().zip(self.dec_state.iter_mut()).zip(x) {
+            if let Some(s) = self.decimator.process(st, v) {
+                *out = s;
+                ready = true;
+            }
+        }
+        if ready && self.framer.push(y) {
+            Some(self.analyze())
+        } else {
+            None
+        }
+    }
+
+    fn analyze(&mut self) -> Estimate {
+        let index = self.framer.take_frame(&mut self.frame);
+        let mut flags = self.guard.flags(&self.guard_state);
+        let frame_power = self.frame[0].iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
+        if !(frame_power >= self.config.silence_power) {
+            flags.insert(Flags::SILENT);
+        }
+        let usable = !flags.contains(Flags::SILENT) && !flags.contains(Flags::NON_FINITE);
+        let gate = if !usable {
+            0.0
+        } else if flags.contains(Flags::CLIPPED) {
+            self.config.clipped_confidence
+        } else {
+            1.0
+        };
+
+        let (azimuth, raw, confidence) = match self.config.method {
+            Method::Similarity => self.similarity_frame(gate, &mut flags),
+            Method::Fdiv | Method::Tdiv => {
+                let iv = self.intensity_frame(usable);
+                (iv.azimuth_deg, iv.azimuth_raw_deg, iv.confidence * gate)
+            }
+        };
+
+        let factor = self.decimator.factor() as i64;
+        let centre2 =
+            self.offset2 + factor * (2 * index as i64 * HOP as i64 + FRAME_LEN as i64 - 1);
+        Estimate {
+            frame_index: index,
+            centre_sample: ((centre2 + 1) / 2).max(0) as u64,
+            azimuth_deg: wrap_deg(azimuth),
+            azimuth_raw_deg: wrap_deg(raw),
+            confidence,
+            power: frame_power,
+            flags,
+        }
+    }
+
+    fn intensity_frame(&mut self, usable: bool) -> IvEstimate {
+        if !usable {
+            return IvEstimate {
+                azimuth_deg: self.last_azimuth,
+                azimuth_raw_deg: self.last_azimuth,
+                confidence: 0.0,
+            };
+        }
+        let iv = if self.config.method == Method::Tdiv {
+            tdiv_process(self.config.tdiv_pole, &mut self.tdiv, &self.frame)
+        } else {
+            for ch in 0..CHANNELS {
+                windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
+            }
+            fdiv_process(
+                self.config.fdiv_pole,
+                &mut self.fdiv,
+                &self.spectra,
+                self.picker.lo_bin,
+                self.picker.hi_bin,
+            )
+        };
+        self.last_azimuth = iv.azimuth_deg;
+        iv
+    }
+
+    /// Similarity method on the current frame; returns (azimuth, raw azimuth, b).
+    fn similarity_frame(&mut self, gate: f32, flags: &mut Flags) -> (f32, f32, f32) {
+        let q = self.table.num_azimuths();
+        let fs = self.decimator.output_rate() as f32;
+        let _ = fs;
+        for ch in 0..CHANNELS {
+            windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
+        }
+        for (p, c) in self.omni_power.iter_mut().zip(self.spectra[0].iter()) {
+            *p = power(*c);
+        }
+        self.picker.process(&self.omni_power, &mut self.peaks);
+
+        let ds: DirectSound = self.config.direct_sound;
+        let curve = &mut self.curve[..q];
+        curve.fill(0.0);
+        let mut weight_sum = 0.0f32;
+        let mut n_used = 0usize;
+        for i in 0..self.peaks.len {
+            let k = self.peaks.bins[i] as usize;
+            let p0 = self.omni_power[k];
+            let pc = [power(self.spectra[1][k]), power(self.spectra[2][k]), power(self.spectra[3][k])];
+            let Some(y) = feature_from_powers(p0, pc) else { continue };
+            let w = if ds.enabled() {
+                let delta = DirectSound::directness(
+                    self.spectra[0][k],
+                    [self.spectra[1][k], self.spectra[2][k], self.spectra[3][k]],
+                );
+                ds.peak_weight(&self.onset, k, p0, delta)
+            } else {
+                1.0
+            };
+            if !(w > 0.0) {
+                continue;
+            }
+            self.curves.accumulate(&self.table, self.bin_rows[k] as usize, y, w, curve);
+            weight_sum += w;
+            n_used += 1;
+        }
+        if ds.onset_exponent > 0.0 {
+            self.onset.update(ds.onset_pole, &self.omni_power);
+        }
+
+        let mut b = gate;
+        let variance;
+        if n_used == 0 || !(weight_sum > 0.0) {
+            flags.insert(Flags::NO_PEAKS);
+            curve.fill(0.0);
+            b = 0.0;
+            variance = 0.0;
+        } else {
+            let inv = 1.0 / weight_sum;
+            for c in curve.iter_mut() {
+                *c *= inv;
+            }
+            variance = curve_variance(curve);
+            b *= self.config.reliability.coefficient(variance);
+        }
+        self.diagnostics = FrameDiagnostics {
+            curve_variance: variance,
+            num_peaks: n_used,
+            mean_peak_weight: if n_used > 0 { weight_sum / n_used as f32 } else { 0.0 },
+        };
+
+        let raw = if n_used > 0 {
+            argmax_parabolic(curve, self.table.azimuths_deg()).map(|(a, _)| a)
+        } else {
+            None
+        };
+        let filtered = self.filter.update(b, &self.curve[..q]);
+        if b > 0.0 {
+            self.have_history = true;
+        }
+        let azimuth = if self.have_history {
+            argmax_parabolic(filtered, self.table.azimuths_deg()).map_or(self.last_azimuth, |(a, _)| a)
+        } else {
+            flags.insert(Flags::NO_HISTORY);
+            raw.unwrap_or(self.last_azimuth)
+        };
+        self.last_azimuth = azimuth;
+        (azimuth, raw.unwrap_or(azimuth), b)
+    }
+}

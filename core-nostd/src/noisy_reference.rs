@@ -1,0 +1,116 @@
+//! Noisy reference features (thesis §5.1.5, eq. 5.16–5.20): each reference vector is also compared
+//! after mixing with the omni-noise feature Y_η at a set of SNRs, and the best match counts.
+//!
+//! With noise gain G = 10^(−SNR/20) (eq. 6.5–6.7 for unit powers):
+//! * magnitude mixing (the thesis, eq. 5.19): Y_i = (Y + G·Y_η)/(1 + G) = α·Y + (1 − α)·Y_η, α = 1/(1 + G);
+//! * power mixing (physically consistent for incoherent noise): Y_i² = α·Y² + (1 − α)·Y_η², α = 1/(1 + G²).
+
+use crate::error::Error;
+use crate::reference_table::Feature;
+use crate::MAX_SNR_SETS;
+
+/// How reference features are mixed with omni noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NoiseMixing {
+    /// Clean references only.
+    Off,
+    /// Linear mixing of magnitudes (thesis eq. 5.19).
+    Magnitude,
+    /// Mixing of powers.
+    Power,
+}
+
+/// The SNR sets with their precomputed mixing weights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoisyReferences {
+    mixing: NoiseMixing,
+    /// Weight α_i of the clean feature per set.
+    alphas: [f32; MAX_SNR_SETS],
+    n: usize,
+}
+
+impl NoisyReferences {
+    /// Builds the sets for SNRs `from_db, from_db + step_db, …, ≤ to_db`.
+    /// With [`NoiseMixing::Off`] there is one set: the clean reference.
+    pub fn new(mixing: NoiseMixing, from_db: f32, to_db: f32, step_db: f32) -> Result<Self, Error> {
+        let mut s = Self { mixing, alphas: [1.0; MAX_SNR_SETS], n: 1 };
+        if mixing == NoiseMixing::Off {
+            return Ok(s);
+        }
+        if !(step_db > 0.0) || !(to_db >= from_db) || !from_db.is_finite() || !to_db.is_finite() {
+            return Err(Error::InvalidConfig("SNR sets: need step > 0 and to ≥ from"));
+        }
+        let count = libm::floorf((to_db - from_db) / step_db + 1e-3) as usize + 1;
+        if count > MAX_SNR_SETS {
+            return Err(Error::InvalidConfig("SNR sets: more than 16 sets"));
+        }
+        for i in 0..count {
+            let snr = from_db + step_db * i as f32;
+            let g = libm::powf(10.0, -snr / 20.0);
+            s.alphas[i] = match mixing {
+                NoiseMixing::Magnitude => 1.0 / (1.0 + g),
+                NoiseMixing::Power => 1.0 / (1.0 + g * g),
+                NoiseMixing::Off => 1.0,
+            };
+        }
+        s.n = count;
+        Ok(s)
+    }
+
+    /// The mixing rule.
+    #[must_use]
+    pub fn mixing(&self) -> NoiseMixing {
+        self.mixing
+    }
+
+    /// Weights α_i of the clean feature, one per set.
+    #[must_use]
+    pub fn alphas(&self) -> &[f32] {
+        &self.alphas[..self.n]
+    }
+
+    /// Reference `y` mixed as set `i`; `noise_mag`/`noise_pow` are the row's Y_η.
+    #[must_use]
+    pub fn mix(&self, i: usize, y: Feature, noise_mag: Feature, noise_pow: Feature) -> Feature {
+        let a = self.alphas[i];
+        let mut out = y;
+        match self.mixing {
+            NoiseMixing::Off => {}
+            NoiseMixing::Magnitude => {
+                for ((o, r), n) in out.iter_mut().zip(y).zip(noise_mag) {
+                    *o = a * r + (1.0 - a) * n;
+                }
+            }
+            NoiseMixing::Power => {
+                for ((o, r), n) in out.iter_mut().zip(y).zip(noise_pow) {
+                    *o = libm::sqrtf(a * r * r + (1.0 - a) * n * n);
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thesis_sets_and_mixing() {
+        let n = NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap();
+        assert_eq!(n.alphas().len(), 8);
+        // 0 dB: G = 1, α = ½.
+        assert!((n.alphas()[3] - 0.5).abs() < 1e-6);
+        let y = n.mix(3, [1.0, 0.25, 0.25], [0.5; 3], [0.5; 3]);
+        assert!((y[0] - 0.75).abs() < 1e-6 && (y[1] - 0.375).abs() < 1e-6);
+        // −30 dB: nearly all noise.
+        let y = n.mix(0, [1.0, 0.25, 0.25], [0.5; 3], [0.5; 3]);
+        assert!((y[0] - 0.5).abs() < 0.02);
+        let p = NoisyReferences::new(NoiseMixing::Power, 0.0, 0.0, 10.0).unwrap();
+        let y = p.mix(0, [1.0, 0.0, 0.0], [0.5; 3], [0.0, 1.0, 0.0]);
+        assert!((y[0] - 0.5f32.sqrt()).abs() < 1e-6 && (y[1] - 0.5f32.sqrt()).abs() < 1e-6);
+        assert!(NoisyReferences::new(NoiseMixing::Magnitude, 0.0, 100.0, 1.0).is_err());
+        assert_eq!(NoisyReferences::new(NoiseMixing::Off, 0.0, 0.0, 0.0).unwrap().alphas(), &[1.0]);
+    }
+}

@@ -1,0 +1,153 @@
+//! Peak picking (thesis §5.1.2): the N_p strongest local maxima of the omni power spectrum inside a
+//! band, filled up with the strongest remaining in-band bins when there are fewer peaks than N_p.
+
+use crate::MAX_PEAKS;
+
+/// Peak picker configuration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeakPicker {
+    /// First bin of the band (inclusive, ≥ 1).
+    pub lo_bin: usize,
+    /// Last bin of the band (inclusive, ≤ NUM_BINS − 2).
+    pub hi_bin: usize,
+    /// Number of peaks to pick, 1…[`MAX_PEAKS`].
+    pub num_peaks: usize,
+    /// Bins whose power is below this are never picked (0 disables the threshold).
+    pub min_power: f32,
+    /// Fill up with the strongest non-peak bins when fewer than `num_peaks` peaks exist.
+    pub fill: bool,
+}
+
+/// The picked bins, strongest first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Peaks {
+    /// Bin indices.
+    pub bins: [u16; MAX_PEAKS],
+    /// Power of the picking channel at each bin.
+    pub power: [f32; MAX_PEAKS],
+    /// Number of valid entries.
+    pub len: usize,
+    /// How many of them are true local maxima (the rest are fill bins).
+    pub n_maxima: usize,
+}
+
+impl Default for Peaks {
+    fn default() -> Self {
+        Self { bins: [0; MAX_PEAKS], power: [0.0; MAX_PEAKS], len: 0, n_maxima: 0 }
+    }
+}
+
+impl Peaks {
+    /// Inserts `(bin, p)` keeping the list sorted by descending power and at most `cap` long.
+    fn insert(&mut self, cap: usize, bin: usize, p: f32) {
+        if self.len == cap && p <= self.power[cap - 1] {
+            return;
+        }
+        let mut i = if self.len < cap { self.len } else { cap - 1 };
+        while i > 0 && self.power[i - 1] < p {
+            self.power[i] = self.power[i - 1];
+            self.bins[i] = self.bins[i - 1];
+            i -= 1;
+        }
+        self.power[i] = p;
+        self.bins[i] = bin as u16;
+        if self.len < cap {
+            self.len += 1;
+        }
+    }
+
+    /// The valid bin indices.
+    #[must_use]
+    pub fn bins(&self) -> &[u16] {
+        &self.bins[..self.len]
+    }
+}
+
+impl PeakPicker {
+    /// `true` when bin `k` of `power` is a local maximum (slope sign changes from + to −).
+    #[inline]
+    fn is_peak(power: &[f32], k: usize) -> bool {
+        power[k] > power[k - 1] && power[k] >= power[k + 1]
+    }
+
+    /// Picks peaks from `power` (one value per bin, DC…Nyquist) into `out`.
+    pub fn process(&self, power: &[f32], out: &mut Peaks) {
+        *out = Peaks::default();
+        let n = self.num_peaks.clamp(1, MAX_PEAKS);
+        let lo = self.lo_bin.max(1);
+        let hi = self.hi_bin.min(power.len().saturating_sub(2));
+        if lo > hi {
+            return;
+        }
+        for k in lo..=hi {
+            if power[k] >= self.min_power && power[k] > 0.0 && Self::is_peak(power, k) {
+                out.insert(n, k, power[k]);
+            }
+        }
+        out.n_maxima = out.len;
+        if self.fill && out.len < n {
+            let mut fill = Peaks::default();
+            let need = n - out.len;
+            for k in lo..=hi {
+                if power[k] >= self.min_power && power[k] > 0.0 && !Self::is_peak(power, k) {
+                    fill.insert(need, k, power[k]);
+                }
+            }
+            for i in 0..fill.len {
+                out.bins[out.len] = fill.bins[i];
+                out.power[out.len] = fill.power[i];
+                out.len += 1;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn picker(n: usize) -> PeakPicker {
+        PeakPicker { lo_bin: 2, hi_bin: 20, num_peaks: n, min_power: 0.0, fill: true }
+    }
+
+    #[test]
+    fn picks_strongest_maxima_in_band() {
+        let mut p = [0.1f32; 30];
+        p[1] = 100.0; // out of band peak
+        p[5] = 5.0;
+        p[9] = 7.0;
+        p[14] = 3.0;
+        p[25] = 50.0; // out of band
+        let mut out = Peaks::default();
+        picker(2).process(&p, &mut out);
+        assert_eq!(out.bins(), &[9, 5]);
+        assert_eq!(out.n_maxima, 2);
+    }
+
+    #[test]
+    fn fills_with_strongest_remaining_bins() {
+        let mut p = [0.0f32; 30];
+        for (k, v) in p.iter_mut().enumerate() {
+            *v = 1.0 + k as f32 * 0.01; // rising: no maximum inside the band except the edge
+        }
+        p[10] = 9.0;
+        p[11] = 8.0; // shoulder of the peak at 10
+        let mut out = Peaks::default();
+        picker(3).process(&p, &mut out);
+        assert_eq!(out.n_maxima, 1);
+        assert_eq!(out.bins(), &[10, 11, 20]);
+    }
+
+    #[test]
+    fn threshold_can_leave_fewer_peaks() {
+        let mut p = [0.0f32; 30];
+        p[5] = 5.0;
+        p[9] = 0.5;
+        let mut out = Peaks::default();
+        PeakPicker { min_power: 1.0, ..picker(4) }.process(&p, &mut out);
+        assert_eq!(out.bins(), &[5]);
+        let zero = [0.0f32; 30];
+        picker(4).process(&zero, &mut out);
+        assert_eq!(out.len, 0);
+    }
+}

@@ -1,0 +1,226 @@
+//! Reference feature table (thesis eq. 5.8, §5.1.5): features |H_c|/|H_0| for Q azimuths and, for a
+//! measured table, for F frequencies (nearest-neighbour frequency alignment).
+//!
+//! The table only borrows its data, so the same type holds the ideal-model `static`s generated at
+//! build time (flash on the target) and tables loaded or measured at run time on the host.
+
+use crate::error::Error;
+use crate::tables::{
+    IDEAL_AZIMUTHS_15DEG, IDEAL_AZIMUTHS_5DEG, IDEAL_FEATURES_15DEG, IDEAL_FEATURES_5DEG,
+};
+use crate::{CARDIOIDS, MAX_AZIMUTHS};
+
+/// Feature vector of the three cardioids.
+pub type Feature = [f32; CARDIOIDS];
+
+/// Frequency axis of the ideal tables (one row, valid at every frequency).
+static IDEAL_FREQS: [f32; 1] = [0.0];
+/// Omni-noise feature of ideal cardioids in magnitude (eq. 5.17: the mean gain, ½).
+static IDEAL_NOISE_MAGNITUDE: [Feature; 1] = [[0.5; CARDIOIDS]];
+/// Omni-noise feature of ideal cardioids in power, for a 3-D diffuse field:
+/// E|card|²/E|omni|² = ¼ + ¼·⅓ = ⅓ (its square root is stored).
+static IDEAL_NOISE_POWER: [Feature; 1] = [[0.577_350_26; CARDIOIDS]];
+
+/// A reference feature table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceTable<'a> {
+    azimuths_deg: &'a [f32],
+    freqs_hz: &'a [f32],
+    features: &'a [Feature],
+    noise_magnitude: &'a [Feature],
+    noise_power: &'a [Feature],
+}
+
+impl<'a> ReferenceTable<'a> {
+    /// Builds a table from its parts.
+    ///
+    /// * `azimuths_deg`: Q ≤ [`MAX_AZIMUTHS`] azimuths, strictly ascending within [0, 360);
+    /// * `freqs_hz`: F ≥ 1 frequencies, ascending (F = 1: one row valid at all frequencies);
+    /// * `features`: F·Q vectors, frequency-major (`features[f·Q + q]`);
+    /// * `noise_magnitude`, `noise_power`: F omni-noise features Y_η (eq. 5.17), for magnitude and
+    ///   power mixing respectively (the power one is the square root of the mean power ratio).
+    pub fn new(
+        azimuths_deg: &'a [f32],
+        freqs_hz: &'a [f32],
+        features: &'a [Feature],
+        noise_magnitude: &'a [Feature],
+        noise_power: &'a [Feature],
+    ) -> Result<Self, Error> {
+        let q = azimuths_deg.len();
+        let f = freqs_hz.len();
+        if q < 3 || q > MAX_AZIMUTHS {
+            return Err(Error::InvalidConfig("reference table needs 3..=360 azimuths"));
+        }
+        if f == 0 {
+            return Err(Error::InvalidConfig("reference table needs at least one frequency"));
+        }
+        if features.len() != f * q {
+            return Err(Error::TableShape { expected: f * q, got: features.len() });
+        }
+        if noise_magnitude.len() != f {
+            return Err(Error::TableShape { expected: f, got: noise_magnitude.len() });
+        }
+        if noise_power.len() != f {
+            return Err(Error::TableShape { expected: f, got: noise_power.len() });
+        }
+        let ascending = azimuths_deg.windows(2).all(|w| w[0] < w[1]);
+        let in_range = azimuths_deg.iter().all(|a| (0.0..360.0).contains(a));
+        if !ascending || !in_range {
+            return Err(Error::InvalidConfig("azimuths must ascend within [0, 360)"));
+        }
+        if !freqs_hz.windows(2).all(|w| w[0] < w[1]) {
+            return Err(Error::InvalidConfig("frequencies must ascend"));
+        }
+        let finite = |v: &Feature| v.iter().all(|x| x.is_finite() && *x >= 0.0);
+        if !features.iter().all(finite)
+            || !noise_magnitude.iter().all(finite)
+            || !noise_power.iter().all(finite)
+        {
+            return Err(Error::InvalidConfig("features must be finite and non-negative"));
+        }
+        Ok(Self { azimuths_deg, freqs_hz, features, noise_magnitude, noise_power })
+    }
+
+    /// The ideal-model table on a 5° grid (the default), in flash.
+    #[must_use]
+    pub fn ideal_5deg() -> ReferenceTable<'static> {
+        ReferenceTable {
+            azimuths_deg: &IDEAL_AZIMUTHS_5DEG,
+            freqs_hz: &IDEAL_FREQS,
+            features: &IDEAL_FEATURES_5DEG,
+            noise_magnitude: &IDEAL_NOISE_MAGNITUDE,
+            noise_power: &IDEAL_NOISE_POWER,
+        }
+    }
+
+    /// The ideal-model table on the thesis's 15° grid.
+    #[must_use]
+    pub fn ideal_15deg() -> ReferenceTable<'static> {
+        ReferenceTable {
+            azimuths_deg: &IDEAL_AZIMUTHS_15DEG,
+            freqs_hz: &IDEAL_FREQS,
+            features: &IDEAL_FEATURES_15DEG,
+            noise_magnitude: &IDEAL_NOISE_MAGNITUDE,
+            noise_power: &IDEAL_NOISE_POWER,
+        }
+    }
+
+    /// Number of azimuths Q.
+    #[must_use]
+    pub fn num_azimuths(&self) -> usize {
+        self.azimuths_deg.len()
+    }
+
+    /// Number of frequency rows F.
+    #[must_use]
+    pub fn num_freqs(&self) -> usize {
+        self.freqs_hz.len()
+    }
+
+    /// The azimuth grid in degrees.
+    #[must_use]
+    pub fn azimuths_deg(&self) -> &'a [f32] {
+        self.azimuths_deg
+    }
+
+    /// The frequency axis in Hz.
+    #[must_use]
+    pub fn freqs_hz(&self) -> &'a [f32] {
+        self.freqs_hz
+    }
+
+    /// All features, frequency-major.
+    #[must_use]
+    pub fn features(&self) -> &'a [Feature] {
+        self.features
+    }
+
+    /// Index of the frequency row nearest to `f_hz`.
+    #[must_use]
+    pub fn freq_index(&self, f_hz: f32) -> usize {
+        let f = self.freqs_hz;
+        let i = f.partition_point(|x| *x < f_hz);
+        if i == 0 {
+            0
+        } else if i == f.len() {
+            f.len() - 1
+        } else if f_hz - f[i - 1] <= f[i] - f_hz {
+            i - 1
+        } else {
+            i
+        }
+    }
+
+    /// The Q features of frequency row `fi`.
+    #[must_use]
+    pub fn row(&self, fi: usize) -> &'a [Feature] {
+        let q = self.azimuths_deg.len();
+        &self.features[fi * q..(fi + 1) * q]
+    }
+
+    /// Omni-noise feature of row `fi` for magnitude mixing.
+    #[must_use]
+    pub fn noise_magnitude(&self, fi: usize) -> Feature {
+        self.noise_magnitude[fi]
+    }
+
+    /// Omni-noise feature of row `fi` for power mixing (√ of the power ratio).
+    #[must_use]
+    pub fn noise_power(&self, fi: usize) -> Feature {
+        self.noise_power[fi]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ideal_table_matches_model() {
+        let t = ReferenceTable::ideal_5deg();
+        assert_eq!(t.num_azimuths(), 72);
+        for (q, f) in t.row(0).iter().enumerate() {
+            let az = (q as f64 * 5.0).to_radians();
+            for (m, v) in f.iter().enumerate() {
+                let want = 0.5 + 0.5 * (az - (m as f64 * 120.0).to_radians()).cos();
+                assert!((*v as f64 - want).abs() < 1e-7, "q {q} m {m}");
+            }
+        }
+        // Thesis eq. 4.5 / 4.6.
+        assert_eq!(t.row(0)[0], [1.0, 0.25, 0.25]);
+        let back = t.row(0)[36];
+        assert!((back[0] - 0.0).abs() < 1e-7 && (back[1] - 0.75).abs() < 1e-6);
+        assert_eq!(ReferenceTable::ideal_15deg().num_azimuths(), 24);
+    }
+
+    #[test]
+    fn nearest_frequency_row() {
+        let az = [0.0, 120.0, 240.0];
+        let fr = [100.0, 200.0, 400.0];
+        let feats = [[0.5; 3]; 9];
+        let noise = [[0.5; 3]; 3];
+        let t = ReferenceTable::new(&az, &fr, &feats, &noise, &noise).unwrap();
+        assert_eq!(t.freq_index(0.0), 0);
+        assert_eq!(t.freq_index(149.0), 0);
+        assert_eq!(t.freq_index(151.0), 1);
+        assert_eq!(t.freq_index(310.0), 2);
+        assert_eq!(t.freq_index(9e9), 2);
+    }
+
+    #[test]
+    fn rejects_bad_shapes() {
+        let az = [0.0, 120.0, 240.0];
+        let fr = [100.0];
+        let feats = [[0.5; 3]; 2];
+        let noise = [[0.5; 3]; 1];
+        assert_eq!(
+            ReferenceTable::new(&az, &fr, &feats, &noise, &noise),
+            Err(Error::TableShape { expected: 3, got: 2 })
+        );
+        let bad_az = [0.0, 240.0, 120.0];
+        let feats3 = [[0.5; 3]; 3];
+        assert!(ReferenceTable::new(&bad_az, &fr, &feats3, &noise, &noise).is_err());
+        let nan = [[f32::NAN; 3]; 3];
+        assert!(ReferenceTable::new(&az, &fr, &nan, &noise, &noise).is_err());
+    }
+}

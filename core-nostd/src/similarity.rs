@@ -1,0 +1,164 @@
+//! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
+//! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
+
+use crate::noisy_reference::{NoiseMixing, NoisyReferences};
+use crate::reference_table::{Feature, ReferenceTable};
+
+/// Similarity measure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SimilarityMeasure {
+    /// 1 / (1 + ‖a − b‖₂) (eq. 4.18 with p = 2), the default.
+    Euclidean,
+    /// aᵀb / (‖a‖‖b‖) (eq. 4.19).
+    Cosine,
+    /// 1 / (1 + ‖a − b‖_p), p > 0.
+    Lp(f32),
+}
+
+impl SimilarityMeasure {
+    /// Similarity of two feature vectors, in [0, 1] (cosine: [−1, 1], 0 for a zero vector).
+    #[must_use]
+    pub fn similarity(&self, a: Feature, b: Feature) -> f32 {
+        match *self {
+            SimilarityMeasure::Euclidean => {
+                let d2: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+                1.0 / (1.0 + libm::sqrtf(d2))
+            }
+            SimilarityMeasure::Cosine => {
+                let dot: f32 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+                let na: f32 = a.iter().map(|x| x * x).sum();
+                let nb: f32 = b.iter().map(|x| x * x).sum();
+                let den = libm::sqrtf(na * nb);
+                if den > 0.0 {
+                    dot / den
+                } else {
+                    0.0
+                }
+            }
+            SimilarityMeasure::Lp(p) => {
+                let s: f32 = a.iter().zip(b).map(|(x, y)| libm::powf(libm::fabsf(x - y), p)).sum();
+                1.0 / (1.0 + libm::powf(s, 1.0 / p))
+            }
+        }
+    }
+}
+
+/// "Mean-free" features (appendix A `meanFree`): Y − mean(Y) + ½.
+#[must_use]
+pub fn mean_free(y: Feature) -> Feature {
+    let m = (y[0] + y[1] + y[2]) / 3.0;
+    [y[0] - m + 0.5, y[1] - m + 0.5, y[2] - m + 0.5]
+}
+
+/// How one peak's similarity row is computed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CurveBuilder {
+    /// Similarity measure.
+    pub measure: SimilarityMeasure,
+    /// Noisy reference sets.
+    pub noisy: NoisyReferences,
+    /// Apply [`mean_free`] to observed and reference features.
+    pub mean_free: bool,
+}
+
+impl CurveBuilder {
+    /// Adds `weight · max_i Sim(y, Y_ref(q, i))` to `curve[q]` for every azimuth q of frequency row `fi`.
+    ///
+    /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed
+    /// references lie on the segment between Y_ref(q) and Y_η, so
+    /// ‖y − Y_i‖² = ‖d‖² − 2α_i·d·r + α_i²·‖r‖² with d = y − Y_η, r = Y_ref(q) − Y_η, and only the
+    /// smallest distance needs a square root. It equals the direct evaluation up to rounding.
+    pub fn accumulate(
+        &self,
+        table: &ReferenceTable<'_>,
+        fi: usize,
+        y: Feature,
+        weight: f32,
+        curve: &mut [f32],
+    ) {
+        let row = table.row(fi);
+        let noise_mag = table.noise_magnitude(fi);
+        let noise_pow = table.noise_power(fi);
+        let fast = self.measure == SimilarityMeasure::Euclidean
+            && !self.mean_free
+            && self.noisy.mixing() != NoiseMixing::Power;
+        if fast {
+            let d = [y[0] - noise_mag[0], y[1] - noise_mag[1], y[2] - noise_mag[2]];
+            let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let alphas = self.noisy.alphas();
+            for (c, r) in curve.iter_mut().zip(row) {
+                let r = [r[0] - noise_mag[0], r[1] - noise_mag[1], r[2] - noise_mag[2]];
+                let dr = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
+                let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+                let mut best = f32::INFINITY;
+                for a in alphas {
+                    let d2 = dd + a * (a * rr - 2.0 * dr);
+                    if d2 < best {
+                        best = d2;
+                    }
+                }
+                *c += weight / (1.0 + libm::sqrtf(best.max(0.0)));
+            }
+            return;
+        }
+        let y = if self.mean_free { mean_free(y) } else { y };
+        for (c, r) in curve.iter_mut().zip(row) {
+            *c += weight * self.max_similarity(y, *r, noise_mag, noise_pow);
+        }
+    }
+
+    /// max over the SNR sets of Sim(y, mix_i(r)) — the direct evaluation.
+    #[must_use]
+    pub fn max_similarity(&self, y: Feature, r: Feature, noise_mag: Feature, noise_pow: Feature) -> f32 {
+        let mut best = f32::NEG_INFINITY;
+        for i in 0..self.noisy.alphas().len() {
+            let mut ref_i = self.noisy.mix(i, r, noise_mag, noise_pow);
+            if self.mean_free {
+                ref_i = mean_free(ref_i);
+            }
+            let s = self.measure.similarity(y, ref_i);
+            if s > best {
+                best = s;
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn measures_at_known_points() {
+        let e = SimilarityMeasure::Euclidean;
+        assert_eq!(e.similarity([1.0, 0.25, 0.25], [1.0, 0.25, 0.25]), 1.0);
+        assert!((e.similarity([0.0; 3], [3.0, 4.0, 0.0]) - 1.0 / 6.0).abs() < 1e-7);
+        let c = SimilarityMeasure::Cosine;
+        assert!((c.similarity([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]) - 1.0).abs() < 1e-7);
+        assert_eq!(c.similarity([0.0; 3], [1.0; 3]), 0.0);
+        let l1 = SimilarityMeasure::Lp(1.0);
+        assert!((l1.similarity([0.0; 3], [1.0, 1.0, 1.0]) - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fast_path_equals_direct_evaluation() {
+        let table = ReferenceTable::ideal_5deg();
+        for mixing in [NoiseMixing::Off, NoiseMixing::Magnitude] {
+            let b = CurveBuilder {
+                measure: SimilarityMeasure::Euclidean,
+                noisy: NoisyReferences::new(mixing, -30.0, 40.0, 10.0).unwrap(),
+                mean_free: false,
+            };
+            for y in [[0.9, 0.3, 0.2], [0.5, 0.5, 0.5], [0.0, 1.2, 0.1], [2.0, 0.0, 0.0]] {
+                let mut fast = [0.0f32; 72];
+                b.accumulate(&table, 0, y, 1.0, &mut fast);
+                for (q, r) in table.row(0).iter().enumerate() {
+                    let direct = b.max_similarity(y, *r, [0.5; 3], [0.5; 3]);
+                    assert!((fast[q] - direct).abs() < 2e-6, "{mixing:?} {y:?} q {q}");
+                }
+            }
+        }
+    }
+}
