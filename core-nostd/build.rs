@@ -71,10 +71,10 @@ fn main() {
         &window,
     );
 
-    let short = halfband_pairs(11, 4.0);
+    let short = halfband_pairs(15, 6.0);
     write_f32_array(
         &mut out,
-        "/// Odd taps of the short 11-tap half-band (first stage of ÷4/÷8; Kaiser β = 4, ≥ 47 dB rejection above 20/48 of its input rate).",
+        "/// Odd taps of the short 15-tap half-band (first stage of ÷4/÷8; Kaiser β = 6, ≥ 60 dB rejection above 20/48 of its input rate).",
         "HALFBAND_SHORT",
         &short,
     );

@@ -9,8 +9,8 @@
 //! | 88200, 96000           | 8      | short ×2, long| 11025, 12000          |
 //!
 //! The long stage (23 taps, 6 multiplies per output) keeps 0–⅙ of its input rate flat within 0.03 dB and
-//! rejects everything that would alias below 4 kHz by ≥ 52 dB; the short stage (11 taps, 3 multiplies)
-//! does the same for the wide transition of the first halving. At 48 kHz that is ≈ 4.5 multiplies per
+//! rejects everything that would alias below 4 kHz by ≥ 52 dB; the short stage (15 taps, 4 multiplies)
+//! does the same for the wide transition of the first halving. At 48 kHz that is ≈ 5 multiplies per
 //! input sample and channel.
 
 use crate::error::Error;
@@ -23,7 +23,7 @@ const MAX_TAPS: usize = 4 * HALFBAND_LONG.len() - 1;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum HalfbandKind {
-    /// 11 taps, for a first halving where the band of interest is far below the transition.
+    /// 15 taps, for a first halving where the band of interest is far below the transition.
     Short,
     /// 23 taps, for the last halving to the analysis rate.
     Long,
