@@ -57,7 +57,11 @@ impl HalfbandState {
     /// A zeroed delay line.
     #[must_use]
     pub const fn new() -> Self {
-        Self { line: [0.0; 2 * MAX_TAPS], pos: 0, odd: false }
+        Self {
+            line: [0.0; 2 * MAX_TAPS],
+            pos: 0,
+            odd: false,
+        }
     }
 }
 
@@ -72,7 +76,11 @@ impl Default for HalfbandState {
 fn halfband_step(kind: HalfbandKind, state: &mut HalfbandState, x: f32) -> Option<f32> {
     state.line[state.pos] = x;
     state.line[state.pos + MAX_TAPS] = x;
-    state.pos = if state.pos + 1 == MAX_TAPS { 0 } else { state.pos + 1 };
+    state.pos = if state.pos + 1 == MAX_TAPS {
+        0
+    } else {
+        state.pos + 1
+    };
     state.odd = !state.odd;
     if state.odd {
         return None;
@@ -109,7 +117,9 @@ impl DecimatorState {
     /// A zeroed state.
     #[must_use]
     pub const fn new() -> Self {
-        Self { stages: [HalfbandState::new(); 3] }
+        Self {
+            stages: [HalfbandState::new(); 3],
+        }
     }
 }
 
@@ -124,7 +134,11 @@ impl Decimator {
             88200 | 96000 => ([Short, Short, Long], 3),
             got => return Err(Error::UnsupportedSampleRate { got }),
         };
-        Ok(Self { stages, n_stages, input_rate })
+        Ok(Self {
+            stages,
+            n_stages,
+            input_rate,
+        })
     }
 
     /// Decimation factor (1, 2, 4 or 8).
@@ -163,7 +177,10 @@ impl Decimator {
     #[inline]
     pub fn process(&self, state: &mut DecimatorState, x: f32) -> Option<f32> {
         let mut v = x;
-        for (kind, st) in self.stages[..self.n_stages].iter().zip(state.stages.iter_mut()) {
+        for (kind, st) in self.stages[..self.n_stages]
+            .iter()
+            .zip(state.stages.iter_mut())
+        {
             v = halfband_step(*kind, st, v)?;
         }
         Some(v)
@@ -230,6 +247,9 @@ mod tests {
 
     #[test]
     fn unknown_rate_is_an_error() {
-        assert_eq!(Decimator::for_rate(8000), Err(Error::UnsupportedSampleRate { got: 8000 }));
+        assert_eq!(
+            Decimator::for_rate(8000),
+            Err(Error::UnsupportedSampleRate { got: 8000 })
+        );
     }
 }
