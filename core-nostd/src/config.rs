@@ -1,6 +1,7 @@
 //! Configuration of the localizer: plain values, fixed while the localizer runs.
 
 use crate::direct_sound::DirectSound;
+use crate::grid_tracker::GridTracker;
 use crate::noisy_reference::NoiseMixing;
 use crate::reliability::Reliability;
 use crate::similarity::SimilarityMeasure;
@@ -16,6 +17,22 @@ pub enum Method {
     /// Time-domain intensity vector (§5.2.1).
     Tdiv,
 }
+
+/// How the per-frame similarity curves become the reported azimuth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Tracking {
+    /// The thesis: adaptive one-pole filter on the curve, S̃ = b·S + (1 − b)·S̃ (eq. 5.31).
+    OnePole,
+    /// Bayesian grid tracker with the curve as a b-tempered likelihood ([`GridTracker`]).
+    Grid(GridTracker),
+}
+
+/// The grid tracker's settings of the product configuration.
+pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
+    sharpness: 20.0,
+    diffusion_deg: 2.0,
+    jump_probability: 0.01,
+};
 
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or
 /// [`LocatorConfig::thesis`] (the published method) and change fields.
@@ -47,6 +64,8 @@ pub struct LocatorConfig {
     pub mean_free: bool,
     /// Reliability weighting of the similarity curve.
     pub reliability: Reliability,
+    /// How curves are combined over time.
+    pub tracking: Tracking,
     /// Direct-sound emphasis of peaks (not in the thesis).
     pub direct_sound: DirectSound,
     /// Omni mean-square power below which a frame is silent (b = 0).
@@ -84,7 +103,9 @@ impl LocatorConfig {
                 enabled: true,
                 speed: 1.0,
                 v_max: 0.02,
+                exponent: 1.0,
             },
+            tracking: Tracking::OnePole,
             direct_sound: DirectSound::OFF,
             silence_power: 1e-10,
             clip_level: 0.999,

@@ -8,6 +8,18 @@ use crate::angle::wrap_deg;
 /// without a finite maximum.
 #[must_use]
 pub fn argmax_parabolic(curve: &[f32], azimuths_deg: &[f32]) -> Option<(f32, usize)> {
+    argmax_parabolic_mapped(curve, azimuths_deg, |v| v)
+}
+
+/// As [`argmax_parabolic`], but the parabola is fitted to `map` of the maximum and its two neighbours
+/// (e.g. `ln` for a posterior, whose logarithm is parabolic near a Gaussian peak). `map` must be
+/// increasing.
+#[must_use]
+pub fn argmax_parabolic_mapped(
+    curve: &[f32],
+    azimuths_deg: &[f32],
+    map: impl Fn(f32) -> f32,
+) -> Option<(f32, usize)> {
     let q = curve.len().min(azimuths_deg.len());
     if q == 0 {
         return None;
@@ -28,7 +40,7 @@ pub fn argmax_parabolic(curve: &[f32], azimuths_deg: &[f32]) -> Option<(f32, usi
     }
     let pm1 = if p == 0 { q - 1 } else { p - 1 };
     let pp1 = if p == q - 1 { 0 } else { p + 1 };
-    let (sm, s0, sp) = (curve[pm1], curve[p], curve[pp1]);
+    let (sm, s0, sp) = (map(curve[pm1]), map(curve[p]), map(curve[pp1]));
     let den = 2.0 * (sm - 2.0 * s0 + sp);
     // A flat top (den = 0) or a numerically degenerate fit keeps the grid point.
     let delta = if den < 0.0 {

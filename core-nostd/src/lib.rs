@@ -14,7 +14,8 @@
 //! 6. [`reference_table`] — reference features in flash (ideal model or measured, per frequency);
 //! 7. [`noisy_reference`] — reference features mixed with omni noise at a set of SNRs (eq. 5.16–5.20);
 //! 8. [`similarity`] — Euclidean / cosine / L_p similarity and the mean similarity curve;
-//! 9. [`reliability`] — curve-variance confidence and the adaptive one-pole filter on the curve (eq. 5.31);
+//! 9. [`reliability`] — curve-variance confidence and the adaptive one-pole filter on the curve (eq. 5.31),
+//!    or [`grid_tracker`] — the product's Bayesian tracker on the curve (no lag, fast jumps);
 //! 10. [`interpolation`] — wrapped argmax with parabolic interpolation (eq. 4.23–4.29).
 //!
 //! [`locator::Locator`] ties them together: feed it blocks of interleaved 4-channel samples (as a DMA
@@ -37,6 +38,7 @@ pub mod estimate;
 pub mod fdiv;
 pub mod features;
 pub mod framer;
+pub mod grid_tracker;
 pub mod input_guard;
 pub mod interpolation;
 pub mod locator;

@@ -11,7 +11,7 @@
 //! block size the DMA delivers.
 
 use crate::angle::wrap_deg;
-use crate::config::{LocatorConfig, Method};
+use crate::config::{LocatorConfig, Method, Tracking};
 use crate::decimator::{Decimator, DecimatorState};
 use crate::direct_sound::{DirectSound, OnsetState};
 use crate::error::Error;
@@ -19,8 +19,9 @@ use crate::estimate::{Estimate, Flags};
 use crate::fdiv::{fdiv_process, FdivState};
 use crate::features::feature_from_powers;
 use crate::framer::Framer;
+use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::{InputGuard, InputGuardState};
-use crate::interpolation::argmax_parabolic;
+use crate::interpolation::{argmax_parabolic, argmax_parabolic_mapped};
 use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
@@ -65,6 +66,7 @@ pub struct Locator<'t> {
     peaks: Peaks,
     curve: [f32; MAX_AZIMUTHS],
     filter: CurveFilter,
+    tracker: GridTrackerState,
     onset: OnsetState,
     fdiv: FdivState,
     tdiv: TdivState,
@@ -155,6 +157,7 @@ impl<'t> Locator<'t> {
             peaks: Peaks::default(),
             curve: [0.0; MAX_AZIMUTHS],
             filter: CurveFilter::new(),
+            tracker: GridTrackerState::new(),
             onset: OnsetState::new(),
             fdiv: FdivState::new(),
             tdiv: TdivState::default(),
@@ -389,13 +392,23 @@ impl<'t> Locator<'t> {
         } else {
             None
         };
-        let filtered = self.filter.update(b, &self.curve[..q]);
         if b > 0.0 {
             self.have_history = true;
         }
+        let azimuths = self.table.azimuths_deg();
+        let tracked = match self.config.tracking {
+            Tracking::OnePole => {
+                let filtered = self.filter.update(b, &self.curve[..q]);
+                argmax_parabolic(filtered, azimuths)
+            }
+            Tracking::Grid(t) => {
+                let spacing = crate::angle::wrap_deg_360(azimuths[1] - azimuths[0]);
+                let post = t.update(&mut self.tracker, &self.curve[..q], b, spacing);
+                argmax_parabolic_mapped(post, azimuths, |p| libm::logf(p.max(1e-30)))
+            }
+        };
         let azimuth = if self.have_history {
-            argmax_parabolic(filtered, self.table.azimuths_deg())
-                .map_or(self.last_azimuth, |(a, _)| a)
+            tracked.map_or(self.last_azimuth, |(a, _)| a)
         } else {
             flags.insert(Flags::NO_HISTORY);
             raw.unwrap_or(self.last_azimuth)

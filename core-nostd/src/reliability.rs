@@ -13,16 +13,27 @@ pub struct Reliability {
     pub speed: f32,
     /// Scale V_max of the curve variance (eq. 5.33).
     pub v_max: f32,
+    /// Exponent p of the scaled variance: b = clip(K·(V/V_max)^p, 0, 1). The thesis uses p = 1;
+    /// p > 1 suppresses the many mediocre frames of a noisy room while keeping good frames fast.
+    pub exponent: f32,
 }
 
 impl Reliability {
-    /// b = clip(K · V / V_max, 0, 1); 0 for a non-finite V.
+    /// b = clip(K · (V / V_max)^p, 0, 1); 0 for a non-finite V.
     #[must_use]
     pub fn coefficient(&self, variance: f32) -> f32 {
         if !self.enabled {
             return 1.0;
         }
-        let b = self.speed * variance / self.v_max;
+        let r = (variance / self.v_max).max(0.0);
+        let scaled = if self.exponent == 1.0 {
+            r
+        } else if self.exponent == 2.0 {
+            r * r
+        } else {
+            libm::powf(r, self.exponent)
+        };
+        let b = self.speed * scaled;
         if b.is_finite() {
             b.clamp(0.0, 1.0)
         } else {

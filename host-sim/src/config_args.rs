@@ -1,6 +1,7 @@
 //! Command-line flags that set the localizer configuration, shared by `locate`, `eval` and friends.
 
 use crate::error::{Result, SimError};
+use cma_core::config::{Tracking, DEFAULT_GRID_TRACKER};
 use cma_core::noisy_reference::NoiseMixing;
 use cma_core::similarity::SimilarityMeasure;
 use cma_core::{LocatorConfig, Method, ReferenceTable};
@@ -34,6 +35,15 @@ pub enum NoiseArg {
     Magnitude,
     /// Power mixing.
     Power,
+}
+
+/// How curves are combined over time, on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum TrackerArg {
+    /// The thesis's adaptive one-pole filter on the curve (eq. 5.31).
+    Onepole,
+    /// Bayesian grid tracker.
+    Grid,
 }
 
 /// Localizer configuration flags. Unset flags keep the preset's value.
@@ -75,6 +85,21 @@ pub struct ConfigArgs {
     /// Curve-variance scale V_max of the reliability weighting.
     #[arg(long)]
     pub vmax: Option<f32>,
+    /// Exponent p of the reliability coefficient b = clip(K·(V/V_max)^p, 0, 1).
+    #[arg(long)]
+    pub reliability_exponent: Option<f32>,
+    /// Tracker on the similarity curve.
+    #[arg(long, value_enum)]
+    pub tracker: Option<TrackerArg>,
+    /// Grid tracker: likelihood sharpness λ.
+    #[arg(long)]
+    pub sharpness: Option<f32>,
+    /// Grid tracker: random-walk step per frame, degrees.
+    #[arg(long)]
+    pub diffusion: Option<f32>,
+    /// Grid tracker: jump probability per frame.
+    #[arg(long)]
+    pub jump_prob: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -133,6 +158,27 @@ impl ConfigArgs {
         if let Some(v) = self.vmax {
             c.reliability.v_max = v;
         }
+        if let Some(v) = self.reliability_exponent {
+            c.reliability.exponent = v;
+        }
+        let mut grid = match c.tracking {
+            Tracking::Grid(g) => g,
+            Tracking::OnePole => DEFAULT_GRID_TRACKER,
+        };
+        if let Some(v) = self.sharpness {
+            grid.sharpness = v;
+        }
+        if let Some(v) = self.diffusion {
+            grid.diffusion_deg = v;
+        }
+        if let Some(v) = self.jump_prob {
+            grid.jump_probability = v;
+        }
+        c.tracking = match (self.tracker, c.tracking) {
+            (Some(TrackerArg::Onepole), _) => Tracking::OnePole,
+            (Some(TrackerArg::Grid), _) | (None, Tracking::Grid(_)) => Tracking::Grid(grid),
+            (None, Tracking::OnePole) => Tracking::OnePole,
+        };
         if let Some(v) = self.directness {
             c.direct_sound.directness_exponent = v;
         }

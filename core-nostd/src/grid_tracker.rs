@@ -1,0 +1,190 @@
+//! Bayesian grid tracker on the similarity curve — the product's replacement for the thesis's
+//! one-pole curve filter (eq. 5.31), which must trade pause rejection against lag.
+//!
+//! The azimuth grid of the reference table is the state space of a hidden Markov model. Per frame:
+//!
+//! 1. **predict**: the posterior diffuses by a small random-walk kernel (the talker moves a little)
+//!    and a fraction ε spreads uniformly (the talker may jump anywhere):
+//!    p⁻ = (1 − ε)·(p ⊛ k) + ε/Q;
+//! 2. **update**: the frame's similarity curve, tempered by its reliability b, is the likelihood:
+//!    p ∝ p⁻ · exp(λ · b · (S − max S)).
+//!
+//! An unreliable frame (b ≈ 0) leaves only the prediction, so pauses are ignored; a run of reliable
+//! frames moves the posterior at once, so jumps are followed in a few frames; and because the motion
+//! model diffuses instead of averaging old curves, a moving talker is followed without lag.
+
+use crate::MAX_AZIMUTHS;
+
+/// Tracker settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridTracker {
+    /// Likelihood sharpness λ (per unit similarity, at b = 1).
+    pub sharpness: f32,
+    /// Random-walk standard deviation per frame, degrees.
+    pub diffusion_deg: f32,
+    /// Probability ε per frame that the talker jumped anywhere.
+    pub jump_probability: f32,
+}
+
+/// The posterior over the grid.
+#[derive(Debug, Clone)]
+pub struct GridTrackerState {
+    posterior: [f32; MAX_AZIMUTHS],
+    scratch: [f32; MAX_AZIMUTHS],
+    initialized: bool,
+}
+
+impl Default for GridTrackerState {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl GridTrackerState {
+    /// A uniform posterior.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            posterior: [0.0; MAX_AZIMUTHS],
+            scratch: [0.0; MAX_AZIMUTHS],
+            initialized: false,
+        }
+    }
+
+    /// The posterior over the first `n` grid points.
+    #[must_use]
+    pub fn posterior(&self, n: usize) -> &[f32] {
+        &self.posterior[..n.min(MAX_AZIMUTHS)]
+    }
+}
+
+impl GridTracker {
+    /// Side weight of the 3-tap random-walk kernel [a, 1 − 2a, a] for a grid spacing in degrees
+    /// (variance 2a bins², capped at a = ⅓).
+    #[must_use]
+    pub fn kernel_side(&self, spacing_deg: f32) -> f32 {
+        if !(spacing_deg > 0.0) {
+            return 0.0;
+        }
+        let s = self.diffusion_deg / spacing_deg;
+        (0.5 * s * s).clamp(0.0, 1.0 / 3.0)
+    }
+
+    /// One predict/update step with the frame's curve and reliability `b`; returns the posterior.
+    pub fn update<'s>(
+        &self,
+        state: &'s mut GridTrackerState,
+        curve: &[f32],
+        b: f32,
+        spacing_deg: f32,
+    ) -> &'s [f32] {
+        let q = curve.len().min(MAX_AZIMUTHS);
+        if q == 0 {
+            return &state.posterior[..0];
+        }
+        let uniform = 1.0 / q as f32;
+        if !state.initialized {
+            state.posterior[..q].fill(uniform);
+            state.initialized = true;
+        }
+        // Predict: circular 3-tap diffusion plus the jump floor.
+        let a = self.kernel_side(spacing_deg);
+        let eps = self.jump_probability.clamp(0.0, 1.0);
+        let p = &state.posterior[..q];
+        for i in 0..q {
+            let l = p[if i == 0 { q - 1 } else { i - 1 }];
+            let r = p[if i + 1 == q { 0 } else { i + 1 }];
+            let d = a * (l + r) + (1.0 - 2.0 * a) * p[i];
+            state.scratch[i] = (1.0 - eps) * d + eps * uniform;
+        }
+        // Update with the tempered likelihood.
+        let gain = self.sharpness * b.clamp(0.0, 1.0);
+        let s_max = curve[..q].iter().fold(f32::NEG_INFINITY, |m, v| m.max(*v));
+        let mut sum = 0.0f32;
+        for i in 0..q {
+            let like = if gain > 0.0 && s_max.is_finite() {
+                libm::expf(gain * (curve[i] - s_max))
+            } else {
+                1.0
+            };
+            let v = state.scratch[i] * like;
+            state.posterior[i] = v;
+            sum += v;
+        }
+        if sum > 0.0 && sum.is_finite() {
+            let inv = 1.0 / sum;
+            for v in state.posterior[..q].iter_mut() {
+                *v *= inv;
+            }
+        } else {
+            state.posterior[..q].fill(uniform);
+        }
+        &state.posterior[..q]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn peaked(q: usize, at: usize) -> [f32; 72] {
+        core::array::from_fn(|i| {
+            let d = (i as i32 - at as i32)
+                .rem_euclid(q as i32)
+                .min((at as i32 - i as i32).rem_euclid(q as i32));
+            1.0 / (1.0 + 0.05 * d as f32)
+        })
+    }
+
+    fn argmax(p: &[f32]) -> usize {
+        p.iter()
+            .enumerate()
+            .fold(
+                (0, f32::MIN),
+                |b, (i, v)| if *v > b.1 { (i, *v) } else { b },
+            )
+            .0
+    }
+
+    #[test]
+    fn ignores_unreliable_frames_and_follows_jumps() {
+        let t = GridTracker {
+            sharpness: 20.0,
+            diffusion_deg: 2.0,
+            jump_probability: 0.01,
+        };
+        let mut s = GridTrackerState::new();
+        for _ in 0..20 {
+            t.update(&mut s, &peaked(72, 10), 1.0, 5.0);
+        }
+        assert_eq!(argmax(s.posterior(72)), 10);
+        // Unreliable frames pointing elsewhere change nothing.
+        for _ in 0..50 {
+            t.update(&mut s, &peaked(72, 40), 0.0, 5.0);
+        }
+        assert_eq!(argmax(s.posterior(72)), 10);
+        // Reliable frames at the new place win within a few frames.
+        let mut frames = 0;
+        while argmax(s.posterior(72)) != 40 {
+            t.update(&mut s, &peaked(72, 40), 1.0, 5.0);
+            frames += 1;
+            assert!(frames < 10);
+        }
+        let sum: f32 = s.posterior(72).iter().sum();
+        assert!((sum - 1.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn degenerate_inputs_keep_a_valid_posterior() {
+        let t = GridTracker {
+            sharpness: 20.0,
+            diffusion_deg: 2.0,
+            jump_probability: 0.01,
+        };
+        let mut s = GridTrackerState::new();
+        t.update(&mut s, &[f32::NAN; 72], 1.0, 5.0);
+        assert!(s.posterior(72).iter().all(|v| v.is_finite()));
+        t.update(&mut s, &[0.5; 72], f32::INFINITY, 0.0);
+        assert!(s.posterior(72).iter().all(|v| v.is_finite()));
+    }
+}
