@@ -172,11 +172,22 @@ impl Decimator {
     /// Feeds one input sample; returns an analysis-rate sample when one is complete.
     #[inline]
     pub fn process(&self, state: &mut DecimatorState, x: f32) -> Option<f32> {
-        let mut v = x;
-        for (kind, st) in self.stages[..self.n_stages].iter().zip(state.stages.iter_mut()) {
-            v = halfband_step(*kind, st, v)?;
+        // Unrolled over the (at most three) stages: a loop over `stages[..n_stages]` made the front end
+        // ≈ 14 % dearer on the Cortex-M4F.
+        let [s0, s1, s2] = &mut state.stages;
+        let [k0, k1, k2] = self.stages;
+        if self.n_stages == 0 {
+            return Some(x);
         }
-        Some(v)
+        let v = halfband_step(k0, s0, x)?;
+        if self.n_stages == 1 {
+            return Some(v);
+        }
+        let v = halfband_step(k1, s1, v)?;
+        if self.n_stages == 2 {
+            return Some(v);
+        }
+        halfband_step(k2, s2, v)
     }
 }
 
