@@ -93,13 +93,32 @@ fn main() {
             "/// Ideal-model features |cardioid|/|omni| of CMA1 on a {step}° azimuth grid (0°, {step}°, …), one row per azimuth."
         )
         .unwrap();
-        writeln!(out, "pub static IDEAL_FEATURES_{step}DEG: [[f32; 3]; {}] = [", t.len()).unwrap();
+        writeln!(
+            out,
+            "pub static IDEAL_FEATURES_{step}DEG: [[f32; 3]; {}] = [",
+            t.len()
+        )
+        .unwrap();
         for f in &t {
-            writeln!(out, "    [{:?}, {:?}, {:?}],", f[0] as f32, f[1] as f32, f[2] as f32).unwrap();
+            writeln!(
+                out,
+                "    [{:?}, {:?}, {:?}],",
+                f[0] as f32, f[1] as f32, f[2] as f32
+            )
+            .unwrap();
         }
         writeln!(out, "];").unwrap();
-        writeln!(out, "/// Azimuths (degrees) of [`IDEAL_FEATURES_{step}DEG`].").unwrap();
-        writeln!(out, "pub static IDEAL_AZIMUTHS_{step}DEG: [f32; {}] = [", t.len()).unwrap();
+        writeln!(
+            out,
+            "/// Azimuths (degrees) of [`IDEAL_FEATURES_{step}DEG`]."
+        )
+        .unwrap();
+        writeln!(
+            out,
+            "pub static IDEAL_AZIMUTHS_{step}DEG: [f32; {}] = [",
+            t.len()
+        )
+        .unwrap();
         for q in 0..t.len() {
             writeln!(out, "    {:?},", (q * step) as f32).unwrap();
         }

@@ -46,9 +46,8 @@ mod tests {
     fn plane_wave_matrixes_to_unit_bformat() {
         for az in [0.0f32, 30.0, 100.0, 200.0, 300.0] {
             let a = az.to_radians();
-            let c: [f32; 3] = core::array::from_fn(|m| {
-                0.5 + 0.5 * (a - (m as f32 * 120.0).to_radians()).cos()
-            });
+            let c: [f32; 3] =
+                core::array::from_fn(|m| 0.5 + 0.5 * (a - (m as f32 * 120.0).to_radians()).cos());
             let [w, x, y] = wxy_real(c);
             assert!((w - 1.0).abs() < 1e-6);
             assert!((x - a.cos()).abs() < 1e-6 && (y - a.sin()).abs() < 1e-6);

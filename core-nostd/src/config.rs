@@ -80,7 +80,11 @@ impl LocatorConfig {
             snr_to_db: 40.0,
             snr_step_db: 10.0,
             mean_free: false,
-            reliability: Reliability { enabled: true, speed: 1.0, v_max: 0.02 },
+            reliability: Reliability {
+                enabled: true,
+                speed: 1.0,
+                v_max: 0.02,
+            },
             direct_sound: DirectSound::OFF,
             silence_power: 1e-10,
             clip_level: 0.999,

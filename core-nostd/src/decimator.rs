@@ -57,7 +57,11 @@ impl HalfbandState {
     /// A zeroed delay line.
     #[must_use]
     pub const fn new() -> Self {
-        Self { line: [0.0; 2 * MAX_TAPS], pos: 0, odd: false }
+        Self {
+            line: [0.0; 2 * MAX_TAPS],
+            pos: 0,
+            odd: false,
+        }
     }
 }
 
@@ -83,7 +87,11 @@ fn halfband_step(kind: HalfbandKind, state: &mut HalfbandState, x: f32) -> Optio
 fn halfband_step_pairs<const P: usize>(pairs: &[f32; P], state: &mut HalfbandState, x: f32) -> Option<f32> {
     state.line[state.pos] = x;
     state.line[state.pos + MAX_TAPS] = x;
-    state.pos = if state.pos + 1 == MAX_TAPS { 0 } else { state.pos + 1 };
+    state.pos = if state.pos + 1 == MAX_TAPS {
+        0
+    } else {
+        state.pos + 1
+    };
     state.odd = !state.odd;
     if state.odd {
         return None;
@@ -119,7 +127,9 @@ impl DecimatorState {
     /// A zeroed state.
     #[must_use]
     pub const fn new() -> Self {
-        Self { stages: [HalfbandState::new(); 3] }
+        Self {
+            stages: [HalfbandState::new(); 3],
+        }
     }
 }
 
@@ -134,7 +144,11 @@ impl Decimator {
             88200 | 96000 => ([Short, Short, Long], 3),
             got => return Err(Error::UnsupportedSampleRate { got }),
         };
-        Ok(Self { stages, n_stages, input_rate })
+        Ok(Self {
+            stages,
+            n_stages,
+            input_rate,
+        })
     }
 
     /// Decimation factor (1, 2, 4 or 8).
@@ -251,6 +265,9 @@ mod tests {
 
     #[test]
     fn unknown_rate_is_an_error() {
-        assert_eq!(Decimator::for_rate(8000), Err(Error::UnsupportedSampleRate { got: 8000 }));
+        assert_eq!(
+            Decimator::for_rate(8000),
+            Err(Error::UnsupportedSampleRate { got: 8000 })
+        );
     }
 }

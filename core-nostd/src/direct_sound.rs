@@ -28,8 +28,12 @@ pub struct DirectSound {
 
 impl DirectSound {
     /// No weighting: the thesis method.
-    pub const OFF: DirectSound =
-        DirectSound { directness_exponent: 0.0, onset_exponent: 0.0, onset_pole: 0.7, onset_floor: 0.1 };
+    pub const OFF: DirectSound = DirectSound {
+        directness_exponent: 0.0,
+        onset_exponent: 0.0,
+        onset_pole: 0.7,
+        onset_floor: 0.1,
+    };
 
     /// `true` when any weight is active.
     #[must_use]
@@ -82,7 +86,9 @@ impl OnsetState {
     /// Empty history.
     #[must_use]
     pub const fn new() -> Self {
-        Self { avg: [0.0; NUM_BINS] }
+        Self {
+            avg: [0.0; NUM_BINS],
+        }
     }
 
     /// Folds this frame's omni power spectrum into the average (after the weights were taken).

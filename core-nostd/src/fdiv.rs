@@ -26,7 +26,9 @@ impl FdivState {
     /// Zero history.
     #[must_use]
     pub const fn new() -> Self {
-        Self { smoothed: [[0.0; 2]; NUM_BINS] }
+        Self {
+            smoothed: [[0.0; 2]; NUM_BINS],
+        }
     }
 }
 
@@ -52,7 +54,11 @@ pub fn fdiv_process(
         ry += i[1];
         mag += libm::sqrtf(s[0] * s[0] + s[1] * s[1]);
     }
-    let conf = if mag > 0.0 { (libm::sqrtf(sx * sx + sy * sy) / mag).clamp(0.0, 1.0) } else { 0.0 };
+    let conf = if mag > 0.0 {
+        (libm::sqrtf(sx * sx + sy * sy) / mag).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     IvEstimate {
         azimuth_deg: rad_to_deg(libm::atan2f(sy, sx)),
         azimuth_raw_deg: rad_to_deg(libm::atan2f(ry, rx)),

@@ -27,7 +27,13 @@ impl Framer {
     /// An empty framer.
     #[must_use]
     pub const fn new() -> Self {
-        Self { ring: [[0.0; FRAME_LEN]; CHANNELS], pos: 0, filled: 0, since_hop: 0, frames_out: 0 }
+        Self {
+            ring: [[0.0; FRAME_LEN]; CHANNELS],
+            pos: 0,
+            filled: 0,
+            since_hop: 0,
+            frames_out: 0,
+        }
     }
 
     /// Pushes one sample frame; returns `true` when a new analysis frame is complete.
@@ -36,7 +42,11 @@ impl Framer {
         for (ch, v) in self.ring.iter_mut().zip(x) {
             ch[self.pos] = v;
         }
-        self.pos = if self.pos + 1 == FRAME_LEN { 0 } else { self.pos + 1 };
+        self.pos = if self.pos + 1 == FRAME_LEN {
+            0
+        } else {
+            self.pos + 1
+        };
         if self.filled < FRAME_LEN {
             self.filled += 1;
             if self.filled == FRAME_LEN {

@@ -59,7 +59,10 @@ mod tests {
 
     #[test]
     fn cleans_and_holds_flags() {
-        let g = InputGuard { clip_level: 0.99, hold_samples: 3 };
+        let g = InputGuard {
+            clip_level: 0.99,
+            hold_samples: 3,
+        };
         let mut s = InputGuardState::default();
         let mut x = [f32::NAN, f32::INFINITY, 2.0, -0.5];
         g.process(&mut s, &mut x);

@@ -31,7 +31,11 @@ pub fn argmax_parabolic(curve: &[f32], azimuths_deg: &[f32]) -> Option<(f32, usi
     let (sm, s0, sp) = (curve[pm1], curve[p], curve[pp1]);
     let den = 2.0 * (sm - 2.0 * s0 + sp);
     // A flat top (den = 0) or a numerically degenerate fit keeps the grid point.
-    let delta = if den < 0.0 { ((sm - sp) / den).clamp(-0.5, 0.5) } else { 0.0 };
+    let delta = if den < 0.0 {
+        ((sm - sp) / den).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
     let spacing = if delta < 0.0 {
         wrap_deg(azimuths_deg[p] - azimuths_deg[pm1])
     } else {
@@ -55,7 +59,10 @@ mod tests {
             let (est, _) = argmax_parabolic(&curve, &az).unwrap();
             assert!(wrap_deg(est - true_az).abs() < 1e-3, "{true_az}: {est}");
         }
-        assert_eq!(argmax_parabolic(&[f32::NAN; 4], &[0.0, 90.0, 180.0, 270.0]), None);
+        assert_eq!(
+            argmax_parabolic(&[f32::NAN; 4], &[0.0, 90.0, 180.0, 270.0]),
+            None
+        );
         assert_eq!(argmax_parabolic(&[], &[]), None);
     }
 }

@@ -75,19 +75,27 @@ pub struct Locator<'t> {
 
 impl<'t> Locator<'t> {
     /// A localizer for input at `input_rate` Hz with `config` and reference `table`.
-    pub fn new(config: LocatorConfig, table: ReferenceTable<'t>, input_rate: u32) -> Result<Self, Error> {
+    pub fn new(
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<Self, Error> {
         let decimator = Decimator::for_rate(input_rate)?;
         let fs = decimator.output_rate() as f32;
         let c = &config;
         if !(c.band_lo_hz >= 0.0 && c.band_hi_hz > c.band_lo_hz && c.band_hi_hz <= fs / 2.0) {
-            return Err(Error::InvalidConfig("band: need 0 ≤ lo < hi ≤ analysis Nyquist"));
+            return Err(Error::InvalidConfig(
+                "band: need 0 ≤ lo < hi ≤ analysis Nyquist",
+            ));
         }
         if c.num_peaks == 0 || c.num_peaks > MAX_PEAKS {
             return Err(Error::InvalidConfig("num_peaks: 1..=32"));
         }
         let r = c.reliability;
         if !(r.speed >= 0.0 && r.v_max > 0.0 && r.speed.is_finite() && r.v_max.is_finite()) {
-            return Err(Error::InvalidConfig("reliability: need K ≥ 0 and V_max > 0"));
+            return Err(Error::InvalidConfig(
+                "reliability: need K ≥ 0 and V_max > 0",
+            ));
         }
         if !(0.0..1.0).contains(&c.tdiv_pole) || !(0.0..1.0).contains(&c.fdiv_pole) {
             return Err(Error::InvalidConfig("poles: need 0 ≤ a < 1"));
@@ -97,7 +105,9 @@ impl<'t> Locator<'t> {
             || !(0.0..1.0).contains(&d.onset_pole)
             || !(0.0..=1.0).contains(&d.onset_floor)
         {
-            return Err(Error::InvalidConfig("direct_sound: exponents ≥ 0, 0 ≤ pole < 1, 0 ≤ floor ≤ 1"));
+            return Err(Error::InvalidConfig(
+                "direct_sound: exponents ≥ 0, 0 ≤ pole < 1, 0 ≤ floor ≤ 1",
+            ));
         }
         if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
             return Err(Error::InvalidConfig("thresholds must be ≥ 0"));
@@ -110,8 +120,13 @@ impl<'t> Locator<'t> {
             min_power: c.peak_threshold * c.peak_threshold,
             fill: c.fill_peaks,
         };
-        let noisy = NoisyReferences::new(c.noise_mixing, c.snr_from_db, c.snr_to_db, c.snr_step_db)?;
-        let curves = CurveBuilder { measure: c.measure, noisy, mean_free: c.mean_free };
+        let noisy =
+            NoisyReferences::new(c.noise_mixing, c.snr_from_db, c.snr_to_db, c.snr_step_db)?;
+        let curves = CurveBuilder {
+            measure: c.measure,
+            noisy,
+            mean_free: c.mean_free,
+        };
         let mut bin_rows = [0u16; NUM_BINS];
         for (k, row) in bin_rows.iter_mut().enumerate() {
             *row = table.freq_index(crate::spectrum::bin_frequency(k, fs)) as u16;
@@ -122,7 +137,10 @@ impl<'t> Locator<'t> {
             config,
             table,
             decimator,
-            guard: InputGuard { clip_level: c.clip_level, hold_samples: hold },
+            guard: InputGuard {
+                clip_level: c.clip_level,
+                hold_samples: hold,
+            },
             picker,
             curves,
             bin_rows,
@@ -196,7 +214,11 @@ impl<'t> Locator<'t> {
 
     /// Feeds a block of sample frames (channel order omni, card 0°, card 120°, card 240°; full scale ±1)
     /// and calls `on_estimate` for every analysis frame completed within it.
-    pub fn process_block(&mut self, block: &[[f32; CHANNELS]], mut on_estimate: impl FnMut(&Estimate)) {
+    pub fn process_block(
+        &mut self,
+        block: &[[f32; CHANNELS]],
+        mut on_estimate: impl FnMut(&Estimate),
+    ) {
         for x in block {
             if let Some(e) = self.process_sample(*x) {
                 on_estimate(&e);
@@ -308,8 +330,14 @@ impl<'t> Locator<'t> {
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
             let p0 = self.omni_power[k];
-            let pc = [power(self.spectra[1][k]), power(self.spectra[2][k]), power(self.spectra[3][k])];
-            let Some(y) = feature_from_powers(p0, pc) else { continue };
+            let pc = [
+                power(self.spectra[1][k]),
+                power(self.spectra[2][k]),
+                power(self.spectra[3][k]),
+            ];
+            let Some(y) = feature_from_powers(p0, pc) else {
+                continue;
+            };
             let w = if ds.enabled() {
                 let delta = DirectSound::directness(
                     self.spectra[0][k],
@@ -322,7 +350,8 @@ impl<'t> Locator<'t> {
             if !(w > 0.0) {
                 continue;
             }
-            self.curves.accumulate(&self.table, self.bin_rows[k] as usize, y, w, curve);
+            self.curves
+                .accumulate(&self.table, self.bin_rows[k] as usize, y, w, curve);
             weight_sum += w;
             n_used += 1;
         }
@@ -348,7 +377,11 @@ impl<'t> Locator<'t> {
         self.diagnostics = FrameDiagnostics {
             curve_variance: variance,
             num_peaks: n_used,
-            mean_peak_weight: if n_used > 0 { weight_sum / n_used as f32 } else { 0.0 },
+            mean_peak_weight: if n_used > 0 {
+                weight_sum / n_used as f32
+            } else {
+                0.0
+            },
         };
 
         let raw = if n_used > 0 {
@@ -361,7 +394,8 @@ impl<'t> Locator<'t> {
             self.have_history = true;
         }
         let azimuth = if self.have_history {
-            argmax_parabolic(filtered, self.table.azimuths_deg()).map_or(self.last_azimuth, |(a, _)| a)
+            argmax_parabolic(filtered, self.table.azimuths_deg())
+                .map_or(self.last_azimuth, |(a, _)| a)
         } else {
             flags.insert(Flags::NO_HISTORY);
             raw.unwrap_or(self.last_azimuth)

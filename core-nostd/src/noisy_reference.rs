@@ -34,12 +34,18 @@ impl NoisyReferences {
     /// Builds the sets for SNRs `from_db, from_db + step_db, …, ≤ to_db`.
     /// With [`NoiseMixing::Off`] there is one set: the clean reference.
     pub fn new(mixing: NoiseMixing, from_db: f32, to_db: f32, step_db: f32) -> Result<Self, Error> {
-        let mut s = Self { mixing, alphas: [1.0; MAX_SNR_SETS], n: 1 };
+        let mut s = Self {
+            mixing,
+            alphas: [1.0; MAX_SNR_SETS],
+            n: 1,
+        };
         if mixing == NoiseMixing::Off {
             return Ok(s);
         }
         if !(step_db > 0.0) || !(to_db >= from_db) || !from_db.is_finite() || !to_db.is_finite() {
-            return Err(Error::InvalidConfig("SNR sets: need step > 0 and to ≥ from"));
+            return Err(Error::InvalidConfig(
+                "SNR sets: need step > 0 and to ≥ from",
+            ));
         }
         let count = libm::floorf((to_db - from_db) / step_db + 1e-3) as usize + 1;
         if count > MAX_SNR_SETS {
@@ -111,6 +117,11 @@ mod tests {
         let y = p.mix(0, [1.0, 0.0, 0.0], [0.5; 3], [0.0, 1.0, 0.0]);
         assert!((y[0] - 0.5f32.sqrt()).abs() < 1e-6 && (y[1] - 0.5f32.sqrt()).abs() < 1e-6);
         assert!(NoisyReferences::new(NoiseMixing::Magnitude, 0.0, 100.0, 1.0).is_err());
-        assert_eq!(NoisyReferences::new(NoiseMixing::Off, 0.0, 0.0, 0.0).unwrap().alphas(), &[1.0]);
+        assert_eq!(
+            NoisyReferences::new(NoiseMixing::Off, 0.0, 0.0, 0.0)
+                .unwrap()
+                .alphas(),
+            &[1.0]
+        );
     }
 }

@@ -33,7 +33,12 @@ pub struct Peaks {
 
 impl Default for Peaks {
     fn default() -> Self {
-        Self { bins: [0; MAX_PEAKS], power: [0.0; MAX_PEAKS], len: 0, n_maxima: 0 }
+        Self {
+            bins: [0; MAX_PEAKS],
+            power: [0.0; MAX_PEAKS],
+            len: 0,
+            n_maxima: 0,
+        }
     }
 }
 
@@ -107,7 +112,13 @@ mod tests {
     use super::*;
 
     fn picker(n: usize) -> PeakPicker {
-        PeakPicker { lo_bin: 2, hi_bin: 20, num_peaks: n, min_power: 0.0, fill: true }
+        PeakPicker {
+            lo_bin: 2,
+            hi_bin: 20,
+            num_peaks: n,
+            min_power: 0.0,
+            fill: true,
+        }
     }
 
     #[test]
@@ -144,7 +155,11 @@ mod tests {
         p[5] = 5.0;
         p[9] = 0.5;
         let mut out = Peaks::default();
-        PeakPicker { min_power: 1.0, ..picker(4) }.process(&p, &mut out);
+        PeakPicker {
+            min_power: 1.0,
+            ..picker(4)
+        }
+        .process(&p, &mut out);
         assert_eq!(out.bins(), &[5]);
         let zero = [0.0f32; 30];
         picker(4).process(&zero, &mut out);

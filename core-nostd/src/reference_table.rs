@@ -49,19 +49,32 @@ impl<'a> ReferenceTable<'a> {
         let q = azimuths_deg.len();
         let f = freqs_hz.len();
         if q < 3 || q > MAX_AZIMUTHS {
-            return Err(Error::InvalidConfig("reference table needs 3..=360 azimuths"));
+            return Err(Error::InvalidConfig(
+                "reference table needs 3..=360 azimuths",
+            ));
         }
         if f == 0 {
-            return Err(Error::InvalidConfig("reference table needs at least one frequency"));
+            return Err(Error::InvalidConfig(
+                "reference table needs at least one frequency",
+            ));
         }
         if features.len() != f * q {
-            return Err(Error::TableShape { expected: f * q, got: features.len() });
+            return Err(Error::TableShape {
+                expected: f * q,
+                got: features.len(),
+            });
         }
         if noise_magnitude.len() != f {
-            return Err(Error::TableShape { expected: f, got: noise_magnitude.len() });
+            return Err(Error::TableShape {
+                expected: f,
+                got: noise_magnitude.len(),
+            });
         }
         if noise_power.len() != f {
-            return Err(Error::TableShape { expected: f, got: noise_power.len() });
+            return Err(Error::TableShape {
+                expected: f,
+                got: noise_power.len(),
+            });
         }
         let ascending = azimuths_deg.windows(2).all(|w| w[0] < w[1]);
         let in_range = azimuths_deg.iter().all(|a| (0.0..360.0).contains(a));
@@ -76,9 +89,17 @@ impl<'a> ReferenceTable<'a> {
             || !noise_magnitude.iter().all(finite)
             || !noise_power.iter().all(finite)
         {
-            return Err(Error::InvalidConfig("features must be finite and non-negative"));
+            return Err(Error::InvalidConfig(
+                "features must be finite and non-negative",
+            ));
         }
-        Ok(Self { azimuths_deg, freqs_hz, features, noise_magnitude, noise_power })
+        Ok(Self {
+            azimuths_deg,
+            freqs_hz,
+            features,
+            noise_magnitude,
+            noise_power,
+        })
     }
 
     /// The ideal-model table on a 5° grid (the default), in flash.
@@ -215,7 +236,10 @@ mod tests {
         let noise = [[0.5; 3]; 1];
         assert_eq!(
             ReferenceTable::new(&az, &fr, &feats, &noise, &noise),
-            Err(Error::TableShape { expected: 3, got: 2 })
+            Err(Error::TableShape {
+                expected: 3,
+                got: 2
+            })
         );
         let bad_az = [0.0, 240.0, 120.0];
         let feats3 = [[0.5; 3]; 3];

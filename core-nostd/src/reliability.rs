@@ -58,7 +58,9 @@ impl CurveFilter {
     /// A filter whose history is a flat (uninformative) curve.
     #[must_use]
     pub const fn new() -> Self {
-        Self { state: [0.0; MAX_AZIMUTHS] }
+        Self {
+            state: [0.0; MAX_AZIMUTHS],
+        }
     }
 
     /// S̃ ← b·S + (1 − b)·S̃ over the first `curve.len()` points; returns the filtered curve.
@@ -88,12 +90,23 @@ mod tests {
 
     #[test]
     fn coefficient_is_clipped_and_filter_follows_eq_5_31() {
-        let r = Reliability { enabled: true, speed: 2.0, v_max: 0.01 };
+        let r = Reliability {
+            enabled: true,
+            speed: 2.0,
+            v_max: 0.01,
+        };
         assert_eq!(r.coefficient(0.0), 0.0);
         assert!((r.coefficient(0.002) - 0.4).abs() < 1e-6);
         assert_eq!(r.coefficient(1.0), 1.0);
         assert_eq!(r.coefficient(f32::NAN), 0.0);
-        assert_eq!(Reliability { enabled: false, ..r }.coefficient(0.0), 1.0);
+        assert_eq!(
+            Reliability {
+                enabled: false,
+                ..r
+            }
+            .coefficient(0.0),
+            1.0
+        );
 
         let mut f = CurveFilter::new();
         f.update(1.0, &[1.0, 2.0, 3.0]);

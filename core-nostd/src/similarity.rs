@@ -37,7 +37,11 @@ impl SimilarityMeasure {
                 }
             }
             SimilarityMeasure::Lp(p) => {
-                let s: f32 = a.iter().zip(b).map(|(x, y)| libm::powf(libm::fabsf(x - y), p)).sum();
+                let s: f32 = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| libm::powf(libm::fabsf(x - y), p))
+                    .sum();
                 1.0 / (1.0 + libm::powf(s, 1.0 / p))
             }
         }
@@ -84,11 +88,19 @@ impl CurveBuilder {
             && !self.mean_free
             && self.noisy.mixing() != NoiseMixing::Power;
         if fast {
-            let d = [y[0] - noise_mag[0], y[1] - noise_mag[1], y[2] - noise_mag[2]];
+            let d = [
+                y[0] - noise_mag[0],
+                y[1] - noise_mag[1],
+                y[2] - noise_mag[2],
+            ];
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let alphas = self.noisy.alphas();
             for (c, r) in curve.iter_mut().zip(row) {
-                let r = [r[0] - noise_mag[0], r[1] - noise_mag[1], r[2] - noise_mag[2]];
+                let r = [
+                    r[0] - noise_mag[0],
+                    r[1] - noise_mag[1],
+                    r[2] - noise_mag[2],
+                ];
                 let dr = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
                 let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
                 let mut best = f32::INFINITY;
@@ -110,7 +122,13 @@ impl CurveBuilder {
 
     /// max over the SNR sets of Sim(y, mix_i(r)) — the direct evaluation.
     #[must_use]
-    pub fn max_similarity(&self, y: Feature, r: Feature, noise_mag: Feature, noise_pow: Feature) -> f32 {
+    pub fn max_similarity(
+        &self,
+        y: Feature,
+        r: Feature,
+        noise_mag: Feature,
+        noise_pow: Feature,
+    ) -> f32 {
         let mut best = f32::NEG_INFINITY;
         for i in 0..self.noisy.alphas().len() {
             let mut ref_i = self.noisy.mix(i, r, noise_mag, noise_pow);
@@ -151,7 +169,12 @@ mod tests {
                 noisy: NoisyReferences::new(mixing, -30.0, 40.0, 10.0).unwrap(),
                 mean_free: false,
             };
-            for y in [[0.9, 0.3, 0.2], [0.5, 0.5, 0.5], [0.0, 1.2, 0.1], [2.0, 0.0, 0.0]] {
+            for y in [
+                [0.9, 0.3, 0.2],
+                [0.5, 0.5, 0.5],
+                [0.0, 1.2, 0.1],
+                [2.0, 0.0, 0.0],
+            ] {
                 let mut fast = [0.0f32; 72];
                 b.accumulate(&table, 0, y, 1.0, &mut fast);
                 for (q, r) in table.row(0).iter().enumerate() {

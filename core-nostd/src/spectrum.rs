@@ -63,7 +63,8 @@ mod tests {
         let mut seed = 12345u32;
         for (n, v) in frame.iter_mut().enumerate() {
             seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            *v = 0.3 + ((seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5)
+            *v = 0.3
+                + ((seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5)
                 + if n % 2 == 0 { 0.25 } else { -0.25 };
         }
         let mut scratch = [0.0; FRAME_LEN];
@@ -72,8 +73,16 @@ mod tests {
         for k in [0usize, 1, 17, 100, 255, 256] {
             let (re, im) = dft(&frame, k);
             let tol = 1e-4 * (1.0 + (re * re + im * im).sqrt());
-            assert!((out[k].re as f64 - re).abs() < tol, "bin {k} re {} vs {re}", out[k].re);
-            assert!((out[k].im as f64 - im).abs() < tol, "bin {k} im {} vs {im}", out[k].im);
+            assert!(
+                (out[k].re as f64 - re).abs() < tol,
+                "bin {k} re {} vs {re}",
+                out[k].re
+            );
+            assert!(
+                (out[k].im as f64 - im).abs() < tol,
+                "bin {k} im {} vs {im}",
+                out[k].im
+            );
         }
         assert_eq!(out[0].im, 0.0);
         assert_eq!(out[256].im, 0.0);

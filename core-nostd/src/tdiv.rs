@@ -23,7 +23,11 @@ pub struct TdivState {
 }
 
 /// TDIV with smoothing pole `pole` (thesis: 0.9 for ≈ 50 ms frames).
-pub fn tdiv_process(pole: f32, state: &mut TdivState, frame: &[[f32; FRAME_LEN]; CHANNELS]) -> IvEstimate {
+pub fn tdiv_process(
+    pole: f32,
+    state: &mut TdivState,
+    frame: &[[f32; FRAME_LEN]; CHANNELS],
+) -> IvEstimate {
     let mut rms = [0.0f32; 3];
     for (r, ch) in rms.iter_mut().zip(frame[1..].iter()) {
         let p: f32 = ch.iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
@@ -34,7 +38,11 @@ pub fn tdiv_process(pole: f32, state: &mut TdivState, frame: &[[f32; FRAME_LEN];
         *s = (1.0 - pole) * v + pole * *s;
     }
     let [w, x, y] = state.smoothed;
-    let conf = if w > 0.0 { (libm::sqrtf(x * x + y * y) / w).clamp(0.0, 1.0) } else { 0.0 };
+    let conf = if w > 0.0 {
+        (libm::sqrtf(x * x + y * y) / w).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     IvEstimate {
         azimuth_deg: rad_to_deg(libm::atan2f(y, x)),
         azimuth_raw_deg: rad_to_deg(libm::atan2f(b[2], b[1])),

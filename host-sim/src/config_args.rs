@@ -1,0 +1,181 @@
+//! Command-line flags that set the localizer configuration, shared by `locate`, `eval` and friends.
+
+use crate::error::{Result, SimError};
+use cma_core::noisy_reference::NoiseMixing;
+use cma_core::similarity::SimilarityMeasure;
+use cma_core::{LocatorConfig, Method, ReferenceTable};
+
+/// Which configuration the flags start from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Preset {
+    /// The product defaults (thesis method plus the measured improvements).
+    Default,
+    /// The thesis's published configuration, for side-by-side reproduction.
+    Thesis,
+}
+
+/// Localization principle on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodArg {
+    /// Similarity approach.
+    Sim,
+    /// Frequency-domain intensity vector.
+    Fdiv,
+    /// Time-domain intensity vector.
+    Tdiv,
+}
+
+/// Noise mixing of reference features on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum NoiseArg {
+    /// Clean references only.
+    Off,
+    /// Magnitude mixing (thesis eq. 5.19).
+    Magnitude,
+    /// Power mixing.
+    Power,
+}
+
+/// Localizer configuration flags. Unset flags keep the preset's value.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ConfigArgs {
+    /// Starting configuration.
+    #[arg(long, value_enum, default_value_t = Preset::Default)]
+    pub preset: Preset,
+    /// Localization method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Sim)]
+    pub method: MethodArg,
+    /// Azimuth grid of the ideal reference table, degrees (5 or 15).
+    #[arg(long, default_value_t = 5)]
+    pub grid: u32,
+    /// Number of spectral peaks N_p.
+    #[arg(long)]
+    pub peaks: Option<usize>,
+    /// Analysis band lower edge, Hz.
+    #[arg(long)]
+    pub band_lo: Option<f32>,
+    /// Analysis band upper edge, Hz.
+    #[arg(long)]
+    pub band_hi: Option<f32>,
+    /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
+    #[arg(long)]
+    pub measure: Option<String>,
+    /// Noisy reference features: mixing rule.
+    #[arg(long, value_enum)]
+    pub noise: Option<NoiseArg>,
+    /// Mean-free features.
+    #[arg(long)]
+    pub mean_free: bool,
+    /// Switch reliability weighting off (b = 1 for every frame).
+    #[arg(long)]
+    pub no_reliability: bool,
+    /// Speed factor K of the reliability weighting.
+    #[arg(long)]
+    pub speed: Option<f32>,
+    /// Curve-variance scale V_max of the reliability weighting.
+    #[arg(long)]
+    pub vmax: Option<f32>,
+    /// Directness exponent γ of the direct-sound peak weighting (0 = off).
+    #[arg(long)]
+    pub directness: Option<f32>,
+    /// Onset exponent of the direct-sound peak weighting (0 = off).
+    #[arg(long)]
+    pub onset: Option<f32>,
+    /// Absolute peak threshold on |X_omni| (0 = off).
+    #[arg(long)]
+    pub peak_threshold: Option<f32>,
+    /// FDIV intensity smoothing pole.
+    #[arg(long)]
+    pub fdiv_pole: Option<f32>,
+    /// TDIV smoothing pole.
+    #[arg(long)]
+    pub tdiv_pole: Option<f32>,
+}
+
+impl ConfigArgs {
+    /// The configuration these flags describe.
+    pub fn config(&self) -> Result<LocatorConfig> {
+        let mut c = match self.preset {
+            Preset::Default => LocatorConfig::default(),
+            Preset::Thesis => LocatorConfig::thesis(),
+        };
+        c.method = match self.method {
+            MethodArg::Sim => Method::Similarity,
+            MethodArg::Fdiv => Method::Fdiv,
+            MethodArg::Tdiv => Method::Tdiv,
+        };
+        if let Some(v) = self.peaks {
+            c.num_peaks = v;
+        }
+        if let Some(v) = self.band_lo {
+            c.band_lo_hz = v;
+        }
+        if let Some(v) = self.band_hi {
+            c.band_hi_hz = v;
+        }
+        if let Some(m) = &self.measure {
+            c.measure = parse_measure(m)?;
+        }
+        if let Some(n) = self.noise {
+            c.noise_mixing = match n {
+                NoiseArg::Off => NoiseMixing::Off,
+                NoiseArg::Magnitude => NoiseMixing::Magnitude,
+                NoiseArg::Power => NoiseMixing::Power,
+            };
+        }
+        c.mean_free |= self.mean_free;
+        if self.no_reliability {
+            c.reliability.enabled = false;
+        }
+        if let Some(v) = self.speed {
+            c.reliability.speed = v;
+        }
+        if let Some(v) = self.vmax {
+            c.reliability.v_max = v;
+        }
+        if let Some(v) = self.directness {
+            c.direct_sound.directness_exponent = v;
+        }
+        if let Some(v) = self.onset {
+            c.direct_sound.onset_exponent = v;
+        }
+        if let Some(v) = self.peak_threshold {
+            c.peak_threshold = v;
+        }
+        if let Some(v) = self.fdiv_pole {
+            c.fdiv_pole = v;
+        }
+        if let Some(v) = self.tdiv_pole {
+            c.tdiv_pole = v;
+        }
+        Ok(c)
+    }
+
+    /// The ideal reference table for `--grid`.
+    pub fn ideal_table(&self) -> Result<ReferenceTable<'static>> {
+        match self.grid {
+            5 => Ok(ReferenceTable::ideal_5deg()),
+            15 => Ok(ReferenceTable::ideal_15deg()),
+            g => Err(SimError::Usage(format!(
+                "--grid: expected 5 or 15 (degrees), got {g}"
+            ))),
+        }
+    }
+}
+
+fn parse_measure(s: &str) -> Result<SimilarityMeasure> {
+    match s {
+        "euclid" | "euclidean" | "l2" => Ok(SimilarityMeasure::Euclidean),
+        "cosine" | "cos" => Ok(SimilarityMeasure::Cosine),
+        other => other
+            .strip_prefix('l')
+            .and_then(|p| p.parse::<f32>().ok())
+            .filter(|p| *p > 0.0 && p.is_finite())
+            .map(SimilarityMeasure::Lp)
+            .ok_or_else(|| {
+                SimError::Usage(format!(
+                    "--measure: expected euclid, cosine or lP with P > 0, got `{other}`"
+                ))
+            }),
+    }
+}

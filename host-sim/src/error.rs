@@ -1,0 +1,87 @@
+//! The error type of every host-sim command: each variant says what was expected and what came.
+
+use std::path::PathBuf;
+
+/// A host-sim failure.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// Command-line usage error (clap prints its own help).
+    #[error("{0}")]
+    Usage(String),
+    /// A file could not be opened, read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file is not a readable WAV file (not RIFF/WAVE, truncated, corrupt header).
+    #[error("{path}: not a valid WAV file: {reason}")]
+    BadWav {
+        /// The file.
+        path: PathBuf,
+        /// What the WAV reader said.
+        reason: String,
+    },
+    /// The WAV has the wrong number of channels.
+    #[error("{path}: expected {expected} channels ({layout}), got {got}")]
+    ChannelCount {
+        /// The file.
+        path: PathBuf,
+        /// Channels needed.
+        expected: u16,
+        /// Channels found.
+        got: u16,
+        /// What the channels must be.
+        layout: &'static str,
+    },
+    /// The WAV's sample format is not supported.
+    #[error("{path}: unsupported sample format: {format} (supported: PCM 8/16/24/32-bit integer, 32-bit float)")]
+    SampleFormat {
+        /// The file.
+        path: PathBuf,
+        /// The format found.
+        format: String,
+    },
+    /// The WAV holds no samples.
+    #[error("{path}: the file holds no samples")]
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A CSV file could not be parsed.
+    #[error("{path}:{line}: {reason}")]
+    BadCsv {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The core refused the configuration or the sample rate.
+    #[error("{context}: {source}")]
+    Core {
+        /// Where (file or option).
+        context: String,
+        /// The core's error.
+        source: cma_core::Error,
+    },
+    /// Anything else, with a readable message.
+    #[error("{0}")]
+    Other(String),
+}
+
+impl SimError {
+    /// Wraps an I/O error with its path.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        SimError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Result of host-sim operations.
+pub type Result<T> = std::result::Result<T, SimError>;

@@ -1,0 +1,275 @@
+//! # host-sim — the cma-core localizer on the host
+//!
+//! Runs *the same* `cma-core` code as the firmware on WAV files, block by block, and adds what a
+//! desk needs: evaluation against ground truth with plots, and a scene simulator for tests.
+//! The binary `host-sim` is a thin wrapper around [`run`].
+
+pub mod config_args;
+pub mod error;
+pub mod eval;
+pub mod ground_truth;
+pub mod locate;
+pub mod manifest;
+pub mod metrics;
+pub mod plots;
+pub mod scene;
+pub mod signal;
+pub mod wav_io;
+
+use clap::{Parser, Subcommand};
+use config_args::ConfigArgs;
+use error::{Result, SimError};
+use std::ffi::OsString;
+use std::path::PathBuf;
+use wav_io::{InputLayout, OutFormat};
+
+/// Command line of `host-sim`.
+#[derive(Debug, Parser)]
+#[command(
+    name = "host-sim",
+    version,
+    about = "Coincident-array talker localizer: the firmware's core on WAV files"
+)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Localize the talker in a 4-channel WAV; one CSV row per analysis frame.
+    Locate(LocateArgs),
+    /// Evaluate against ground truth on a folder with manifest.csv and NAME.pos.csv files.
+    Eval(EvalArgs),
+    /// Synthesise a CMA1 scene (WAV + .pos.csv) from a talker, a track, diffuse noise and a room.
+    Scene(SceneArgs),
+}
+
+/// `host-sim locate`.
+#[derive(Debug, clap::Args)]
+pub struct LocateArgs {
+    /// Input WAV (4 channels).
+    pub input: PathBuf,
+    /// Write the CSV here instead of stdout.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Channel layout of the input.
+    #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
+    pub input_layout: InputLayout,
+    /// Localizer configuration.
+    #[command(flatten)]
+    pub config: ConfigArgs,
+}
+
+/// `host-sim eval`.
+#[derive(Debug, clap::Args)]
+pub struct EvalArgs {
+    /// Folder with manifest.csv.
+    pub dir: PathBuf,
+    /// Print the report as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write PNG plots (track vs truth per scene, accuracy vs tolerance) into this folder.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Channel layout of the scenes.
+    #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
+    pub input_layout: InputLayout,
+    /// Localizer configuration.
+    #[command(flatten)]
+    pub config: ConfigArgs,
+}
+
+/// `host-sim scene`.
+#[derive(Debug, clap::Args)]
+pub struct SceneArgs {
+    /// Output WAV; the truth goes to the same name with `.pos.csv`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Talker: a mono WAV (resampled to --rate).
+    #[arg(long)]
+    pub source: Option<PathBuf>,
+    /// Talker: a synthetic speech-like signal of this many seconds.
+    #[arg(long)]
+    pub synth: Option<f64>,
+    /// Output sample rate, Hz.
+    #[arg(long, default_value_t = 16000)]
+    pub rate: u32,
+    /// Static talker azimuth, degrees.
+    #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["track", "rotate"])]
+    pub azimuth: Option<f64>,
+    /// Jumping talker: TIME:AZIMUTH pairs, e.g. `0:30,2:-160,4:95`.
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "rotate")]
+    pub track: Option<String>,
+    /// Circling talker: angular speed in degrees per second (start from --start-azimuth).
+    #[arg(long, allow_hyphen_values = true)]
+    pub rotate: Option<f64>,
+    /// Start azimuth of --rotate, degrees.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 0.0)]
+    pub start_azimuth: f64,
+    /// Diffuse pink noise at this SNR on the omni, dB (omit for no noise).
+    #[arg(long, allow_hyphen_values = true)]
+    pub snr: Option<f64>,
+    /// Measured first-order room response (AmbiX W, Y, Z, X), rotated to the talker azimuth.
+    #[arg(long)]
+    pub rir: Option<PathBuf>,
+    /// The room response is N3D rather than SN3D.
+    #[arg(long)]
+    pub rir_n3d: bool,
+    /// Direct-sound azimuth of the room response, degrees (default: measured from its intensity).
+    #[arg(long, allow_hyphen_values = true)]
+    pub rir_direct: Option<f64>,
+    /// Truncate the room response to this many seconds.
+    #[arg(long, default_value_t = 1.0)]
+    pub rir_length: f64,
+    /// Noise-only lead-in before the talker, s.
+    #[arg(long, default_value_t = 0.25)]
+    pub lead_in: f64,
+    /// Peak level of the file, dBFS.
+    #[arg(long, allow_hyphen_values = true, default_value_t = -3.0)]
+    pub peak_dbfs: f64,
+    /// Noise / synthetic source seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Sample format of the WAV.
+    #[arg(long, value_enum, default_value_t = OutFormat::Pcm16)]
+    pub format: OutFormat,
+    /// Append the scene to this manifest.csv (created if missing) under --set.
+    #[arg(long)]
+    pub manifest: Option<PathBuf>,
+    /// Set name for --manifest.
+    #[arg(long, default_value = "scenes")]
+    pub set: String,
+}
+
+/// Parses `args` (including the program name) and runs the command.
+pub fn run<I, T>(args: I) -> Result<()>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e)
+            if matches!(
+                e.kind(),
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
+            ) =>
+        {
+            print!("{e}");
+            return Ok(());
+        }
+        Err(e) => return Err(SimError::Usage(e.render().to_string())),
+    };
+    match cli.command {
+        Command::Locate(a) => cmd_locate(&a),
+        Command::Eval(a) => cmd_eval(&a),
+        Command::Scene(a) => cmd_scene(&a),
+    }
+}
+
+fn progress_bar(total: u64) -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(total);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {percent:>3}% {elapsed_precise} eta {eta}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    pb
+}
+
+fn cmd_locate(a: &LocateArgs) -> Result<()> {
+    let config = a.config.config()?;
+    let table = a.config.ideal_table()?;
+    let rec = wav_io::read_recording(&a.input, a.input_layout)?;
+    let pb = progress_bar(rec.frames.len() as u64);
+    let rows = locate::locate(&rec, config, table, |n| pb.inc(n as u64))?;
+    pb.finish_and_clear();
+    match &a.csv {
+        Some(path) => wav_io::write_atomically(path, |tmp| {
+            let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;
+            locate::write_csv(std::io::BufWriter::new(f), &rows).map_err(|e| SimError::io(tmp, e))
+        }),
+        None => locate::write_csv(std::io::stdout().lock(), &rows)
+            .map_err(|e| SimError::io("<stdout>", e)),
+    }
+}
+
+fn cmd_eval(a: &EvalArgs) -> Result<()> {
+    let config = a.config.config()?;
+    let table = a.config.ideal_table()?;
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pb = progress_bar(eval::total_frames(&a.dir));
+    let (report, scenes) = eval::evaluate(&a.dir, config, table, a.input_layout, threads, &|n| {
+        pb.inc(n)
+    })?;
+    pb.finish_and_clear();
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?
+        );
+    } else {
+        print!("{}", eval::format_table(&report));
+    }
+    if let Some(dir) = &a.plots {
+        std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
+        plots::accuracy_plot(&dir.join("accuracy.png"), &report)?;
+        for s in &scenes {
+            plots::track_plot(&dir.join(format!("{}.png", s.entry.name())), s)?;
+        }
+    }
+    Ok(())
+}
+
+fn cmd_scene(a: &SceneArgs) -> Result<()> {
+    cma_core::decimator::Decimator::for_rate(a.rate).map_err(|source| SimError::Core {
+        context: "--rate".into(),
+        source,
+    })?;
+    let source = scene::load_source(a.source.as_deref(), a.synth, a.rate, a.seed)?;
+    let motion = match (a.azimuth, &a.track, a.rotate) {
+        (Some(az), None, None) => scene::Motion::Steps(vec![(0.0, az)]),
+        (None, Some(t), None) => scene::Motion::parse_steps(t)?,
+        (None, None, Some(speed)) => scene::Motion::Rotate {
+            start_deg: a.start_azimuth,
+            deg_per_s: speed,
+        },
+        (None, None, None) => scene::Motion::Steps(vec![(0.0, 0.0)]),
+        _ => {
+            return Err(SimError::Usage(
+                "give at most one of --azimuth, --track, --rotate".into(),
+            ))
+        }
+    };
+    let room = a
+        .rir
+        .as_deref()
+        .map(|p| scene::RoomResponse::read(p, a.rate, a.rir_n3d, a.rir_length, a.rir_direct))
+        .transpose()?;
+    let spec = scene::SceneSpec {
+        source,
+        rate: a.rate,
+        lead_in_s: a.lead_in,
+        motion,
+        snr_db: a.snr,
+        room,
+        peak_dbfs: a.peak_dbfs,
+        seed: a.seed,
+    };
+    let s = scene::synthesize(&spec);
+    scene::write_scene(
+        &s,
+        &a.out,
+        a.format,
+        a.manifest.as_deref().map(|m| (m, a.set.as_str())),
+    )
+}

@@ -1,0 +1,128 @@
+//! The evaluation manifest: `manifest.csv` with `file,set,score_from_s,score_to_s,note`.
+
+use crate::error::{Result, SimError};
+use std::path::{Path, PathBuf};
+
+/// One scene of an evaluation folder.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    /// WAV path relative to the folder.
+    pub file: PathBuf,
+    /// Set name (e.g. `anechoic`, `room`, `jump`, `moving`).
+    pub set: String,
+    /// Start of the scored interval, s.
+    pub score_from_s: f64,
+    /// End of the scored interval, s.
+    pub score_to_s: f64,
+    /// Free text.
+    pub note: String,
+}
+
+impl Entry {
+    /// Path of the truth file: `NAME.pos.csv` beside `NAME.wav`.
+    #[must_use]
+    pub fn truth_path(&self, dir: &Path) -> PathBuf {
+        dir.join(self.file.with_extension("pos.csv"))
+    }
+
+    /// Scene name: the file stem.
+    #[must_use]
+    pub fn name(&self) -> String {
+        self.file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+}
+
+/// Splits one CSV line, honouring double quotes.
+fn split_csv(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' if quoted && chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            '"' => quoted = !quoted,
+            ',' if !quoted => out.push(std::mem::take(&mut cur)),
+            c => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+/// Reads `dir/manifest.csv`.
+pub fn read(dir: &Path) -> Result<Vec<Entry>> {
+    let path = dir.join("manifest.csv");
+    let text = std::fs::read_to_string(&path).map_err(|e| SimError::io(&path, e))?;
+    let bad = |line: usize, reason: String| SimError::BadCsv {
+        path: path.clone(),
+        line,
+        reason,
+    };
+    let mut lines = text.lines().enumerate();
+    let (_, header) = lines
+        .next()
+        .ok_or_else(|| bad(1, "empty manifest".into()))?;
+    let cols = split_csv(header);
+    let want = ["file", "set", "score_from_s", "score_to_s"];
+    if cols.len() < 4 || cols[..4].iter().zip(want).any(|(c, w)| c.trim() != w) {
+        return Err(bad(
+            1,
+            format!("expected header file,set,score_from_s,score_to_s[,note], got `{header}`"),
+        ));
+    }
+    let mut out = Vec::new();
+    for (i, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f = split_csv(line);
+        if f.len() < 4 {
+            return Err(bad(
+                i + 1,
+                format!("expected at least 4 fields, got {}", f.len()),
+            ));
+        }
+        let num = |s: &str| {
+            s.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| bad(i + 1, format!("`{s}` is not a number")))
+        };
+        let (from, to) = (num(&f[2])?, num(&f[3])?);
+        if to < from {
+            return Err(bad(i + 1, format!("score_to_s {to} < score_from_s {from}")));
+        }
+        out.push(Entry {
+            file: PathBuf::from(f[0].trim()),
+            set: f[1].trim().to_string(),
+            score_from_s: from,
+            score_to_s: to,
+            note: f.get(4).cloned().unwrap_or_default(),
+        });
+    }
+    if out.is_empty() {
+        return Err(bad(2, "manifest lists no scenes".into()));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quoted_fields() {
+        assert_eq!(
+            split_csv(r#"a,b,"c, ""d""",e"#),
+            vec!["a", "b", "c, \"d\"", "e"]
+        );
+    }
+}

@@ -1,0 +1,440 @@
+//! `host-sim scene`: synthesises CMA1 recordings with ground truth — a talker (mono WAV or a
+//! synthetic speech-like source) on an azimuth track (static, jumps or circling), a 3-D diffuse
+//! noise field at a given SNR on the omni, and optionally a measured first-order room response
+//! rotated to the wanted azimuth.
+//!
+//! Diffuse noise has the exact second-order statistics of an isotropic 3-D field in first-order
+//! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E[X²] = E[Y²] = E[Z²] = E[W²]/3. The capsules then
+//! see omni = W and cardioid_m = ½W + ½(X cos φ_m + Y sin φ_m), so |card|²/|omni|² = ⅓ on average.
+
+use crate::error::{Result, SimError};
+use crate::ground_truth::{wrap180, Track};
+use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
+use crate::wav_io::{read_interleaved, read_mono, write_atomically, write_wav, OutFormat};
+use cma_core::CARDIOID_LOOK_DEG;
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+/// Where the talker is over time.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Motion {
+    /// Jumps: (start time s, azimuth °) rows, the first at 0.
+    Steps(Vec<(f64, f64)>),
+    /// Circling at a constant angular speed from a start azimuth.
+    Rotate {
+        /// Azimuth at t = 0, degrees.
+        start_deg: f64,
+        /// Angular speed, degrees per second (counter-clockwise positive).
+        deg_per_s: f64,
+    },
+}
+
+impl Motion {
+    /// Azimuth at time `t`, degrees.
+    #[must_use]
+    pub fn azimuth_at(&self, t: f64) -> f64 {
+        match self {
+            Motion::Steps(rows) => {
+                let i = rows.partition_point(|r| r.0 <= t);
+                wrap180(rows[i.saturating_sub(1)].1)
+            }
+            Motion::Rotate {
+                start_deg,
+                deg_per_s,
+            } => wrap180(start_deg + deg_per_s * t),
+        }
+    }
+
+    /// Parses `--track "0:30,2:-160,4:95"` (time s : azimuth °).
+    pub fn parse_steps(s: &str) -> Result<Self> {
+        let mut rows = Vec::new();
+        for part in s.split(',') {
+            let (t, a) = part.split_once(':').ok_or_else(|| {
+                SimError::Usage(format!(
+                    "--track: expected TIME:AZIMUTH pairs, got `{part}`"
+                ))
+            })?;
+            let num = |v: &str| v.trim().parse::<f64>().ok().filter(|x| x.is_finite());
+            let (Some(t), Some(a)) = (num(t), num(a)) else {
+                return Err(SimError::Usage(format!(
+                    "--track: not a number in `{part}`"
+                )));
+            };
+            if rows.last().is_some_and(|r: &(f64, f64)| t <= r.0) || (rows.is_empty() && t != 0.0) {
+                return Err(SimError::Usage(
+                    "--track: times must start at 0 and increase".into(),
+                ));
+            }
+            rows.push((t, a));
+        }
+        Ok(Motion::Steps(rows))
+    }
+}
+
+/// A first-order room response in B-format (W, X, Y), SN3D, at the scene rate.
+#[derive(Debug, Clone)]
+pub struct RoomResponse {
+    w: Vec<f64>,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    /// Azimuth of the direct sound, degrees.
+    pub direct_deg: f64,
+}
+
+impl RoomResponse {
+    /// Reads an AmbiX (ACN W, Y, Z, X) impulse response, resamples it to `rate`, truncates it to
+    /// `max_s` seconds and finds its direct-sound azimuth from the intensity of the first 2.5 ms after
+    /// the strongest W sample (unless `direct_deg` is given). `n3d` rescales N3D to SN3D.
+    pub fn read(
+        path: &Path,
+        rate: u32,
+        n3d: bool,
+        max_s: f64,
+        direct_deg: Option<f64>,
+    ) -> Result<Self> {
+        let (spec, data) = read_interleaved(path)?;
+        if spec.channels != 4 {
+            return Err(SimError::ChannelCount {
+                path: path.to_path_buf(),
+                expected: 4,
+                got: spec.channels,
+                layout: "AmbiX W, Y, Z, X",
+            });
+        }
+        let g = if n3d { 1.0 / 3f64.sqrt() } else { 1.0 };
+        let ch = |i: usize, gain: f64| -> Vec<f64> {
+            let v: Vec<f64> = data.chunks_exact(4).map(|c| c[i] as f64 * gain).collect();
+            let mut r = resample(&v, spec.sample_rate, rate);
+            r.truncate((max_s * rate as f64) as usize);
+            r
+        };
+        let (w, y, x) = (ch(0, 1.0), ch(1, g), ch(3, g));
+        let peak = w
+            .iter()
+            .enumerate()
+            .fold(
+                (0, 0.0f64),
+                |b, (i, v)| if v.abs() > b.1 { (i, v.abs()) } else { b },
+            )
+            .0;
+        let end = (peak + (0.0025 * rate as f64) as usize).min(w.len());
+        let start = peak.saturating_sub((0.0005 * rate as f64) as usize);
+        let (mut ix, mut iy) = (0.0, 0.0);
+        for i in start..end {
+            ix += w[i] * x[i];
+            iy += w[i] * y[i];
+        }
+        let measured = iy.atan2(ix).to_degrees();
+        Ok(Self {
+            w,
+            x,
+            y,
+            direct_deg: direct_deg.unwrap_or(measured),
+        })
+    }
+
+    /// (W, X, Y) responses rotated so the direct sound comes from `azimuth_deg`.
+    fn rotated(&self, azimuth_deg: f64) -> [Vec<f64>; 3] {
+        let a = (azimuth_deg - self.direct_deg).to_radians();
+        let (c, s) = (a.cos(), a.sin());
+        let x = self
+            .x
+            .iter()
+            .zip(&self.y)
+            .map(|(x, y)| x * c - y * s)
+            .collect();
+        let y = self
+            .x
+            .iter()
+            .zip(&self.y)
+            .map(|(x, y)| x * s + y * c)
+            .collect();
+        [self.w.clone(), x, y]
+    }
+}
+
+/// What to synthesise.
+#[derive(Debug, Clone)]
+pub struct SceneSpec {
+    /// Talker signal at `rate` (already resampled).
+    pub source: Vec<f64>,
+    /// Output rate, Hz.
+    pub rate: u32,
+    /// Noise-only time before the talker starts, s.
+    pub lead_in_s: f64,
+    /// Where the talker is.
+    pub motion: Motion,
+    /// SNR on the omni (talker power over its active part vs noise power), dB; `None`: no noise.
+    pub snr_db: Option<f64>,
+    /// Optional room response.
+    pub room: Option<RoomResponse>,
+    /// Peak level of the written file, dBFS.
+    pub peak_dbfs: f64,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+/// A synthesised scene: CMA1 sample frames and truth.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// Sample frames (omni, card 0°, 120°, 240°).
+    pub frames: Vec<[f32; 4]>,
+    /// Rate, Hz.
+    pub rate: u32,
+    /// Truth track (times relative to the file start).
+    pub track: Track,
+    /// Interval where the talker is active, s.
+    pub active_s: (f64, f64),
+}
+
+/// Renders W, X, Y of the talker (plane wave, or through the room) for the whole timeline.
+fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec<f64>; 3] {
+    let mut out = [vec![0.0; total], vec![0.0; total], vec![0.0; total]];
+    let rate = spec.rate as f64;
+    match (&spec.room, &spec.motion) {
+        (None, motion) => {
+            for (n, s) in spec.source.iter().enumerate() {
+                let t = (n + lead) as f64 / rate;
+                let a = motion.azimuth_at(t).to_radians();
+                out[0][n + lead] += s;
+                out[1][n + lead] += s * a.cos();
+                out[2][n + lead] += s * a.sin();
+            }
+        }
+        (Some(room), Motion::Steps(rows)) => {
+            for (i, (t0, az)) in rows.iter().enumerate() {
+                let t1 = rows.get(i + 1).map_or(f64::INFINITY, |r| r.0);
+                let seg: Vec<f64> = spec
+                    .source
+                    .iter()
+                    .enumerate()
+                    .map(|(n, s)| {
+                        let t = (n + lead) as f64 / rate;
+                        if t >= *t0 && t < t1 {
+                            *s
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                if seg.iter().all(|v| *v == 0.0) {
+                    continue;
+                }
+                for (o, h) in out.iter_mut().zip(room.rotated(*az)) {
+                    for (k, v) in convolve(&seg, &h).into_iter().enumerate() {
+                        if let Some(d) = o.get_mut(k + lead) {
+                            *d += v;
+                        }
+                    }
+                }
+            }
+        }
+        (Some(room), Motion::Rotate { .. }) => {
+            // A moving source in a room: render short overlapping segments (50 ms, Hann cross-fade)
+            // each with the response rotated to the segment's centre azimuth.
+            let hop = (0.025 * rate) as usize;
+            let win = 2 * hop;
+            let mut start = 0usize;
+            while start < spec.source.len() {
+                let centre_t = (start + lead + hop) as f64 / rate;
+                let az = spec.motion.azimuth_at(centre_t);
+                let seg: Vec<f64> = (0..win)
+                    .map(|i| {
+                        let w = 0.5 - 0.5 * (2.0 * PI * i as f64 / win as f64).cos();
+                        spec.source.get(start + i).copied().unwrap_or(0.0) * w
+                    })
+                    .collect();
+                for (o, h) in out.iter_mut().zip(room.rotated(az)) {
+                    for (k, v) in convolve(&seg, &h).into_iter().enumerate() {
+                        if let Some(d) = o.get_mut(start + k + lead) {
+                            *d += v;
+                        }
+                    }
+                }
+                start += hop;
+            }
+        }
+    }
+    out
+}
+
+/// Synthesises a scene.
+#[must_use]
+pub fn synthesize(spec: &SceneSpec) -> Scene {
+    let rate = spec.rate as f64;
+    let lead = (spec.lead_in_s * rate).round() as usize;
+    let tail = spec.room.as_ref().map_or(0, |r| r.w.len());
+    let total = lead + spec.source.len() + tail.min((0.3 * rate) as usize);
+    let [w, x, y] = render_talker(spec, total, lead);
+    let active = (lead, lead + spec.source.len());
+    let talker_power = w[active.0..active.1].iter().map(|v| v * v).sum::<f64>()
+        / (active.1 - active.0).max(1) as f64;
+
+    let mut ch: Vec<[f64; 4]> = (0..total)
+        .map(|n| {
+            let mut f = [w[n], 0.0, 0.0, 0.0];
+            for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
+                let a = (*look as f64).to_radians();
+                f[m + 1] = 0.5 * w[n] + 0.5 * (x[n] * a.cos() + y[n] * a.sin());
+            }
+            f
+        })
+        .collect();
+    if let Some(snr) = spec.snr_db {
+        let mut rng = Rng::new(spec.seed);
+        let nw = pink_noise(&mut rng, total);
+        let nx = pink_noise(&mut rng, total);
+        let ny = pink_noise(&mut rng, total);
+        let g = (talker_power * 10f64.powf(-snr / 10.0)).sqrt();
+        let gd = g / 3f64.sqrt();
+        for (n, f) in ch.iter_mut().enumerate() {
+            let (w, x, y) = (g * nw[n], gd * nx[n], gd * ny[n]);
+            f[0] += w;
+            for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
+                let a = (*look as f64).to_radians();
+                f[m + 1] += 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
+            }
+        }
+    }
+    let peak = ch
+        .iter()
+        .flat_map(|f| f.iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1e-12);
+    let gain = 10f64.powf(spec.peak_dbfs / 20.0) / peak;
+    let frames = ch.iter().map(|f| f.map(|v| (v * gain) as f32)).collect();
+    let t_end = total as f64 / rate;
+    let track = match &spec.motion {
+        Motion::Steps(rows) => Track { rows: rows.clone() },
+        Motion::Rotate { .. } => Track {
+            rows: (0..=((t_end / 0.05).ceil() as usize))
+                .map(|i| (i as f64 * 0.05, spec.motion.azimuth_at(i as f64 * 0.05)))
+                .collect(),
+        },
+    };
+    Scene {
+        frames,
+        rate: spec.rate,
+        track,
+        active_s: (active.0 as f64 / rate, active.1 as f64 / rate),
+    }
+}
+
+/// A deterministic speech-like source: voiced syllables (harmonics of a gliding f0 through two
+/// formant resonances) of 120–300 ms separated by 50–250 ms pauses, with occasional noise bursts.
+#[must_use]
+pub fn synthetic_speech(rate: u32, seconds: f64, seed: u64) -> Vec<f64> {
+    let mut rng = Rng::new(seed.wrapping_add(1));
+    let fs = rate as f64;
+    let n = (seconds * fs) as usize;
+    let mut out = vec![0.0; n];
+    let mut t = 0usize;
+    while t < n {
+        let syl = ((0.12 + 0.18 * rng.uniform()) * fs) as usize;
+        let f0 = 100.0 + 120.0 * rng.uniform();
+        let glide = 0.8 + 0.4 * rng.uniform();
+        let formants = [
+            300.0 + 600.0 * rng.uniform(),
+            900.0 + 1600.0 * rng.uniform(),
+        ];
+        let fricative = rng.uniform() < 0.25;
+        let mut phase = 0.0f64;
+        for i in 0..syl.min(n - t) {
+            let env = (PI * i as f64 / syl as f64).sin().powi(2);
+            let f = f0 * (1.0 + (glide - 1.0) * i as f64 / syl as f64);
+            phase += 2.0 * PI * f / fs;
+            let mut v = 0.0;
+            let mut h = 1.0;
+            while h * f < 0.45 * fs && h * f < 5000.0 {
+                let fh = h * f;
+                let g: f64 = formants
+                    .iter()
+                    .map(|fc| 1.0 / (1.0 + ((fh - fc) / (0.15 * fc)).powi(2)))
+                    .sum();
+                v += g * (h * phase).sin() / h.sqrt();
+                h += 1.0;
+            }
+            if fricative {
+                v = 0.3 * v + 0.7 * rng.gaussian();
+            }
+            out[t + i] = v * env;
+        }
+        t += syl + ((0.05 + 0.2 * rng.uniform()) * fs) as usize;
+    }
+    normalize_rms(&mut out);
+    out
+}
+
+/// Writes a scene's WAV and `.pos.csv` (atomically), and optionally appends it to a manifest.
+pub fn write_scene(
+    scene: &Scene,
+    out: &Path,
+    format: OutFormat,
+    manifest: Option<(&Path, &str)>,
+) -> Result<()> {
+    let samples: Vec<f32> = scene
+        .frames
+        .iter()
+        .flat_map(|f| f.iter().copied())
+        .collect();
+    write_wav(out, scene.rate, 4, &samples, format)?;
+    let pos = out.with_extension("pos.csv");
+    write_atomically(&pos, |tmp| {
+        let mut s = String::from("t_s,azimuth_deg,elevation_deg,distance_m\n");
+        for (t, a) in &scene.track.rows {
+            s.push_str(&format!("{t:.4},{a:.2},0.0,1.50\n"));
+        }
+        std::fs::write(tmp, s).map_err(|e| SimError::io(tmp, e))
+    })?;
+    if let Some((manifest, set)) = manifest {
+        use std::io::Write;
+        let dir = manifest.parent().unwrap_or(Path::new("."));
+        let rel: PathBuf = out
+            .strip_prefix(dir)
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|_| out.to_path_buf());
+        let new = !manifest.exists();
+        let mut f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(manifest)
+            .map_err(|e| SimError::io(manifest, e))?;
+        if new {
+            writeln!(f, "file,set,score_from_s,score_to_s,note")
+                .map_err(|e| SimError::io(manifest, e))?;
+        }
+        writeln!(
+            f,
+            "{},{},{:.3},{:.3},\"host-sim scene\"",
+            rel.display(),
+            set,
+            scene.active_s.0 + 0.1,
+            scene.active_s.1
+        )
+        .map_err(|e| SimError::io(manifest, e))?;
+    }
+    Ok(())
+}
+
+/// Loads the talker: a mono WAV resampled to `rate`, or a synthetic source of `synth_s` seconds.
+pub fn load_source(
+    path: Option<&Path>,
+    synth_s: Option<f64>,
+    rate: u32,
+    seed: u64,
+) -> Result<Vec<f64>> {
+    match (path, synth_s) {
+        (Some(p), None) => {
+            let (r, x) = read_mono(p)?;
+            let x: Vec<f64> = x.iter().map(|v| *v as f64).collect();
+            Ok(resample(&x, r, rate))
+        }
+        (None, Some(s)) if s > 0.0 && s.is_finite() => Ok(synthetic_speech(rate, s, seed)),
+        (None, Some(s)) => Err(SimError::Usage(format!(
+            "--synth: expected a positive duration, got {s}"
+        ))),
+        _ => Err(SimError::Usage(
+            "give exactly one of --source FILE.wav or --synth SECONDS".into(),
+        )),
+    }
+}
