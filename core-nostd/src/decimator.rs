@@ -84,7 +84,11 @@ fn halfband_step(kind: HalfbandKind, state: &mut HalfbandState, x: f32) -> Optio
 /// so the loop unrolls and its indices need no bounds checks (a third of the decimator's cost on the
 /// Cortex-M4F); the arithmetic and its order are those of the direct form.
 #[inline(always)]
-fn halfband_step_pairs<const P: usize>(pairs: &[f32; P], state: &mut HalfbandState, x: f32) -> Option<f32> {
+fn halfband_step_pairs<const P: usize>(
+    pairs: &[f32; P],
+    state: &mut HalfbandState,
+    x: f32,
+) -> Option<f32> {
     state.line[state.pos] = x;
     state.line[state.pos + MAX_TAPS] = x;
     state.pos = if state.pos + 1 == MAX_TAPS {

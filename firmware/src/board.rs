@@ -63,7 +63,10 @@ fn clock_config() -> Config {
     use rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv};
     use rcc::{PllRDiv, PllSource, Sysclk};
     let mut config = Config::default();
-    config.rcc.hse = Some(Hse { freq: Hertz::mhz(25), mode: HseMode::Oscillator });
+    config.rcc.hse = Some(Hse {
+        freq: Hertz::mhz(25),
+        mode: HseMode::Oscillator,
+    });
     config.rcc.pll_src = PllSource::HSE;
     config.rcc.pll = Some(Pll {
         prediv: PllPreDiv::DIV25,
@@ -111,9 +114,11 @@ impl AudioIn {
     /// On a DMA overrun of either receiver both are stopped and restarted together, so the four
     /// channels are sample-aligned again, and [`Overrun`] is returned; `out` is then not written.
     pub async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
-        let (ra, rb) =
-            embassy_futures::join::join(self.a.read(&mut self.words_a), self.b.read(&mut self.words_b))
-                .await;
+        let (ra, rb) = embassy_futures::join::join(
+            self.a.read(&mut self.words_a),
+            self.b.read(&mut self.words_b),
+        )
+        .await;
         if ra.is_err() || rb.is_err() {
             self.resync().await;
             return Err(Overrun);
@@ -171,7 +176,16 @@ pub fn init() -> Board {
     let mut cfg_b = cfg_a;
     cfg_b.mode = i2s::Mode::Slave;
     cfg_b.master_clock = false;
-    let b = I2S::new_rxonly_nomck(p.SPI3, p.PB5, p.PA15, p.PB3, p.DMA1_CH0, RING_B.take(), Irqs, cfg_b);
+    let b = I2S::new_rxonly_nomck(
+        p.SPI3,
+        p.PB5,
+        p.PA15,
+        p.PB3,
+        p.DMA1_CH0,
+        RING_B.take(),
+        Irqs,
+        cfg_b,
+    );
 
     let mut uart_cfg = usart::Config::default();
     uart_cfg.baudrate = UART_BAUD;
@@ -181,7 +195,12 @@ pub fn init() -> Board {
     let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
     Board {
-        audio: AudioIn { a, b, words_a: [0; BLOCK_WORDS], words_b: [0; BLOCK_WORDS] },
+        audio: AudioIn {
+            a,
+            b,
+            words_a: [0; BLOCK_WORDS],
+            words_b: [0; BLOCK_WORDS],
+        },
         uart,
         watchdog,
     }

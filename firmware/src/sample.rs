@@ -38,7 +38,10 @@ pub fn code_to_f32(code: i32) -> f32 {
 /// When `a` or `b` is shorter than `4 · out.len()` halfwords.
 pub fn interleave_stereo_pairs(a: &[u16], b: &[u16], out: &mut [[f32; CHANNELS]]) {
     let n = out.len() * WORDS_PER_STEREO_FRAME;
-    assert!(a.len() >= n && b.len() >= n, "need {n} halfwords per stream");
+    assert!(
+        a.len() >= n && b.len() >= n,
+        "need {n} halfwords per stream"
+    );
     for ((frame, wa), wb) in out
         .iter_mut()
         .zip(a.chunks_exact(WORDS_PER_STEREO_FRAME))
@@ -68,7 +71,10 @@ mod tests {
         for code in [0, 1, -1, 0x7F_FFFF, -0x80_0000, 0x12_3456, -0x12_3456] {
             let (h, l) = halves(code);
             assert_eq!(code_from_halfwords(h, l), code << 8);
-            assert_eq!(code_to_f32(code_from_halfwords(h, l)), code as f32 / 8_388_608.0);
+            assert_eq!(
+                code_to_f32(code_from_halfwords(h, l)),
+                code as f32 / 8_388_608.0
+            );
         }
         let (h, l) = halves(-0x80_0000);
         assert_eq!(code_to_f32(code_from_halfwords(h, l)), -1.0);

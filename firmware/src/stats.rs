@@ -16,7 +16,10 @@ impl Counters {
     /// All counters at 0.
     #[must_use]
     pub const fn new() -> Self {
-        Self { overruns: AtomicU32::new(0), dropped: AtomicU32::new(0) }
+        Self {
+            overruns: AtomicU32::new(0),
+            dropped: AtomicU32::new(0),
+        }
     }
 
     /// Counts one DMA overrun (the capture lost samples and was resynchronised).

@@ -43,7 +43,13 @@ fn tenths(deg: f32) -> i16 {
 impl Frame {
     /// The wire frame of an estimate.
     #[must_use]
-    pub fn from_estimate(e: &Estimate, seq: u32, rate_hz: u32, overruns: u32, dropped: u32) -> Self {
+    pub fn from_estimate(
+        e: &Estimate,
+        seq: u32,
+        rate_hz: u32,
+        overruns: u32,
+        dropped: u32,
+    ) -> Self {
         Self {
             seq,
             rate_hz,
@@ -101,7 +107,11 @@ fn crc16_ccitt_false(bytes: &[u8]) -> u16 {
     for b in bytes {
         crc ^= (*b as u16) << 8;
         for _ in 0..8 {
-            crc = if crc & 0x8000 != 0 { (crc << 1) ^ 0x1021 } else { crc << 1 };
+            crc = if crc & 0x8000 != 0 {
+                (crc << 1) ^ 0x1021
+            } else {
+                crc << 1
+            };
         }
     }
     crc

@@ -76,5 +76,7 @@ mod target {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    eprintln!("qemu-check: build with --target thumbv7em-none-eabihf and run under qemu-system-arm");
+    eprintln!(
+        "qemu-check: build with --target thumbv7em-none-eabihf and run under qemu-system-arm"
+    );
 }

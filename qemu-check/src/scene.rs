@@ -63,7 +63,15 @@ impl Scene {
     /// The scene at sample 0.
     #[must_use]
     pub fn new() -> Self {
-        Self { n: 0, rng: Rng(0x1234_5678), gains: [0.0; CHANNELS], lp: 0.0, hp: 0.0, phase: 0.0, voice: 0.0 }
+        Self {
+            n: 0,
+            rng: Rng(0x1234_5678),
+            gains: [0.0; CHANNELS],
+            lp: 0.0,
+            hp: 0.0,
+            phase: 0.0,
+            voice: 0.0,
+        }
     }
 
     fn set_position(&mut self, az_deg: f32) {

@@ -35,8 +35,13 @@ pub enum Stage {
 
 impl Stage {
     /// All stages, in pipeline order.
-    pub const ALL: [Stage; 5] =
-        [Stage::FrontEnd, Stage::Spectra, Stage::Peaks, Stage::Similarity, Stage::Reliability];
+    pub const ALL: [Stage; 5] = [
+        Stage::FrontEnd,
+        Stage::Spectra,
+        Stage::Peaks,
+        Stage::Similarity,
+        Stage::Reliability,
+    ];
 
     /// Mode word of the stage (3…7).
     #[must_use]
@@ -106,7 +111,10 @@ impl Bench {
             framer: Framer::new(),
             dec,
             dec_state: [DecimatorState::new(); CHANNELS],
-            guard: InputGuard { clip_level: c.clip_level, hold_samples: 4 * (FRAME_LEN as u32 + 64) },
+            guard: InputGuard {
+                clip_level: c.clip_level,
+                hold_samples: 4 * (FRAME_LEN as u32 + 64),
+            },
             guard_state: InputGuardState::default(),
             picker: PeakPicker {
                 lo_bin: bin_of(c.band_lo_hz).max(1),
@@ -117,8 +125,13 @@ impl Bench {
             },
             curves: CurveBuilder {
                 measure: c.measure,
-                noisy: NoisyReferences::new(c.noise_mixing, c.snr_from_db, c.snr_to_db, c.snr_step_db)
-                    .expect("default SNR sets are valid"),
+                noisy: NoisyReferences::new(
+                    c.noise_mixing,
+                    c.snr_from_db,
+                    c.snr_to_db,
+                    c.snr_step_db,
+                )
+                .expect("default SNR sets are valid"),
                 mean_free: c.mean_free,
             },
             table: ReferenceTable::ideal_5deg(),
@@ -166,12 +179,20 @@ impl Bench {
 
     fn spectra(&mut self) {
         for ch in 0..CHANNELS {
-            windowed_spectrum(black_box(&self.frame[ch]), &mut self.scratch, &mut self.spectra[ch]);
+            windowed_spectrum(
+                black_box(&self.frame[ch]),
+                &mut self.scratch,
+                &mut self.spectra[ch],
+            );
         }
     }
 
     fn peaks(&mut self) {
-        for (p, c) in self.omni_power.iter_mut().zip(black_box(&self.spectra[0]).iter()) {
+        for (p, c) in self
+            .omni_power
+            .iter_mut()
+            .zip(black_box(&self.spectra[0]).iter())
+        {
             *p = power(*c);
         }
         self.picker.process(&self.omni_power, &mut self.peaks);
@@ -186,7 +207,9 @@ impl Bench {
             let k = self.peaks.bins[i] as usize;
             let s = black_box(&self.spectra);
             let pc = [power(s[1][k]), power(s[2][k]), power(s[3][k])];
-            let Some(y) = feature_from_powers(self.omni_power[k], pc) else { continue };
+            let Some(y) = feature_from_powers(self.omni_power[k], pc) else {
+                continue;
+            };
             self.curves.accumulate(&self.table, 0, y, 1.0, curve);
             weight_sum += 1.0;
         }

@@ -14,7 +14,10 @@ const TARGET: &str = "thumbv7em-none-eabihf";
 const QEMU_TIMEOUT_S: &str = "120";
 
 fn workspace_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("workspace root")
+        .to_path_buf()
 }
 
 fn target_elf() -> PathBuf {
@@ -25,12 +28,17 @@ fn target_elf() -> PathBuf {
 }
 
 fn have_qemu() -> bool {
-    Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success())
+    Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
 }
 
 fn host_lines() -> Vec<String> {
     let mut lines = Vec::new();
-    run_scene(SCENE_HOPS, true, |e| lines.push(EstimateBits(e).to_string()));
+    run_scene(SCENE_HOPS, true, |e| {
+        lines.push(EstimateBits(e).to_string())
+    });
     lines.push(format!("END {}", lines.len()));
     lines
 }
@@ -38,8 +46,13 @@ fn host_lines() -> Vec<String> {
 #[test]
 fn target_estimates_equal_host_estimates_bit_for_bit() {
     if !have_qemu() {
-        assert!(std::env::var_os("CI").is_none(), "CI is set but qemu-system-arm is not installed");
-        eprintln!("SKIPPED: qemu-system-arm not found (install it, e.g. apt-get install qemu-system-arm)");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set but qemu-system-arm is not installed"
+        );
+        eprintln!(
+            "SKIPPED: qemu-system-arm not found (install it, e.g. apt-get install qemu-system-arm)"
+        );
         return;
     }
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -52,7 +65,14 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
 
     let out = Command::new("timeout")
         .arg(QEMU_TIMEOUT_S)
-        .args(["qemu-system-arm", "-cpu", "cortex-m4", "-machine", "mps2-an386", "-nographic"])
+        .args([
+            "qemu-system-arm",
+            "-cpu",
+            "cortex-m4",
+            "-machine",
+            "mps2-an386",
+            "-nographic",
+        ])
         .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
         .arg(target_elf())
         .output()
@@ -67,7 +87,11 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
 
     let target: Vec<&str> = stdout.lines().map(str::trim_end).collect();
     let host = host_lines();
-    assert!(host.len() > 100, "the scene yields {} estimates", host.len());
+    assert!(
+        host.len() > 100,
+        "the scene yields {} estimates",
+        host.len()
+    );
     let mismatches: Vec<String> = host
         .iter()
         .zip(&target)
@@ -82,6 +106,11 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
         host.len(),
         host.len(),
         target.len(),
-        mismatches.iter().take(10).cloned().collect::<Vec<_>>().join("\n")
+        mismatches
+            .iter()
+            .take(10)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join("\n")
     );
 }
