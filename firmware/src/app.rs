@@ -1,0 +1,105 @@
+//! The application: a DSP task (capture → core → estimates) and a UART task (estimates → frame lines).
+//!
+//! ```text
+//! I2S2 + I2S3 ─DMA rings─▶ dsp_task ─ Locator ─▶ ESTIMATES (bounded) ─▶ uart_task ─DMA─▶ USART1
+//!                              │ overruns counted,                │ full: frame dropped, counted
+//!                              └ watchdog petted per block        └ one `$CMA,…` line per estimate
+//! ```
+
+use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
+use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
+use cma_firmware::stats::Counters;
+use cma_firmware::wire_compat as wire;
+use embassy_executor::Spawner;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::channel::Channel;
+use static_cell::StaticCell;
+
+/// Estimates waiting for the UART (≈ 85 ms of estimates at one per 21.3 ms).
+const QUEUE_LEN: usize = 4;
+
+static ESTIMATES: Channel<CriticalSectionRawMutex, Estimate, QUEUE_LEN> = Channel::new();
+static COUNTERS: Counters = Counters::new();
+/// The localizer (≈ 37 KB). The cell holds the constructor's `Result` itself, so that the value is built
+/// in place instead of being moved through the stack twice (which cost a 69 KB stack frame).
+static LOCATOR: StaticCell<Result<Locator<'static>, cma_core::Error>> = StaticCell::new();
+
+/// Starts the board and the tasks.
+pub async fn run(spawner: Spawner) {
+    let board = board::init();
+    defmt::info!(
+        "cma firmware: {} Hz, {} sample frames per block",
+        SAMPLE_RATE_HZ,
+        BLOCK_FRAMES
+    );
+
+    let locator = LOCATOR.init_with(|| {
+        Locator::new(
+            LocatorConfig::default(),
+            ReferenceTable::ideal_5deg(),
+            SAMPLE_RATE_HZ,
+        )
+    });
+    // Note(unwrap-like panic): the default configuration and the built-in table are valid at 48 kHz;
+    // a failure here is a build defect and panics at boot.
+    let locator = match locator {
+        Ok(l) => l,
+        Err(e) => defmt::panic!("localizer configuration rejected: {}", e),
+    };
+
+    spawner.spawn(uart_task(board.uart).unwrap());
+    spawner.spawn(dsp_task(board.audio, locator, board.watchdog).unwrap());
+}
+
+/// Captures blocks, runs the localizer, queues the estimates.
+///
+/// Real-time contract: each call of `AudioIn::read` returns [`BLOCK_FRAMES`] sample frames (2.67 ms);
+/// every fourth to eighth block completes an analysis hop (1024 input samples, 21.3 ms), whose analysis
+/// must end before the DMA rings ([`board::RING_FRAMES`], 10.7 ms) fill. When they do fill, the
+/// overrun is counted, both receivers are restarted in step and the count appears in the `ovr` field of
+/// the following frames; the localizer keeps its state (its sample clock then runs behind the input by
+/// the samples lost). Estimates never wait for the UART: when the queue is full they are dropped and
+/// counted in the `drop` field.
+#[embassy_executor::task]
+async fn dsp_task(
+    mut audio: AudioIn,
+    locator: &'static mut Locator<'static>,
+    mut watchdog: Watchdog,
+) {
+    let mut block = [[0.0f32; CHANNELS]; BLOCK_FRAMES];
+    watchdog.unleash();
+    audio.start();
+    loop {
+        watchdog.pet();
+        if audio.read(&mut block).await.is_err() {
+            COUNTERS.count_overrun();
+            defmt::warn!("I2S overrun #{}: capture realigned", COUNTERS.overruns());
+            continue;
+        }
+        locator.process_block(&block, |e| {
+            if ESTIMATES.try_send(*e).is_err() {
+                COUNTERS.count_dropped();
+            }
+        });
+    }
+}
+
+/// Encodes queued estimates as frame lines and writes them to the UART.
+#[embassy_executor::task]
+async fn uart_task(mut uart: FrameTx) {
+    let mut line = [0u8; wire::MAX_LINE];
+    loop {
+        let e = ESTIMATES.receive().await;
+        let frame = wire::Frame::from_estimate(
+            &e,
+            e.frame_index,
+            SAMPLE_RATE_HZ,
+            COUNTERS.overruns(),
+            COUNTERS.dropped(),
+        );
+        let n = wire::encode(&frame, &mut line);
+        if let Err(err) = uart.write(&line[..n]).await {
+            defmt::warn!("UART write failed: {}", err);
+        }
+    }
+}

@@ -1,0 +1,207 @@
+//! Everything specific to the chip and the board: clocks, pins, DMA streams, interrupts, buffers.
+//!
+//! Board: STM32F411CE "Black Pill" (25 MHz HSE) with two stereo 24-bit I2S ADCs.
+//!
+//! | signal            | pin  | peripheral (AF)      | ADC A (omni, card 0°) | ADC B (card 120°, 240°) |
+//! |-------------------|------|----------------------|-----------------------|-------------------------|
+//! | MCK 12.288 MHz    | PA3  | I2S2_MCK (AF5)       | SCKI                  | SCKI                    |
+//! | BCK 3.072 MHz     | PB13 | I2S2_CK (AF5), out   | BCK                   | BCK                     |
+//! | BCK, slave input  | PB3  | I2S3_CK (AF6), in    | — (wire to PB13)      | — (wire to PB13)        |
+//! | LRCK 48 kHz       | PB12 | I2S2_WS (AF5), out   | LRCK                  | LRCK                    |
+//! | LRCK, slave input | PA15 | I2S3_WS (AF6), in    | — (wire to PB12)      | — (wire to PB12)        |
+//! | data A            | PB15 | I2S2_SD (AF5), in    | DOUT                  |                         |
+//! | data B            | PB5  | I2S3_SD (AF6), in    |                       | DOUT                    |
+//! | frame stream TX   | PA9  | USART1_TX (AF7)      |                       |                         |
+//!
+//! DMA: SPI2_RX on DMA1 stream 3, SPI3_RX on DMA1 stream 0, USART1_TX on DMA2 stream 7.
+//!
+//! A port to another part (e.g. an STM32F446 with one 4-channel TDM ADC on SAI) replaces this module:
+//! [`init`] must return an [`AudioIn`] whose `read` fills sample frames in the core's channel order, a
+//! [`FrameTx`] and a [`Watchdog`].
+
+use cma_core::CHANNELS;
+use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
+use embassy_stm32::i2s::{self, I2S};
+use embassy_stm32::mode::Async;
+use embassy_stm32::time::Hertz;
+use embassy_stm32::usart::{self, UartTx};
+use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_stm32::{bind_interrupts, dma, peripherals, rcc, Config};
+use static_cell::ConstStaticCell;
+
+/// Input sample rate, Hz (the ADCs' LRCK).
+pub const SAMPLE_RATE_HZ: u32 = 48_000;
+/// UART baud rate of the frame stream.
+pub const UART_BAUD: u32 = 115_200;
+/// Sample frames per DSP block (0.67 ms at 48 kHz).
+pub const BLOCK_FRAMES: usize = 32;
+/// Sample frames held by each DMA ring buffer (5.3 ms at 48 kHz): the longest the DSP task may lag
+/// behind before an overrun.
+pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
+/// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
+/// resets the chip.
+pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+
+const BLOCK_WORDS: usize = BLOCK_FRAMES * WORDS_PER_STEREO_FRAME;
+const RING_WORDS: usize = RING_FRAMES * WORDS_PER_STEREO_FRAME;
+
+bind_interrupts!(struct Irqs {
+    DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
+    DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
+    DMA2_STREAM7 => dma::InterruptHandler<peripherals::DMA2_CH7>;
+});
+
+// DMA ring buffers. The F411 has one SRAM, reachable by both DMA controllers, so they stay in `.bss`
+// (a named section would need `#[link_section]`, i.e. `unsafe`, and buy nothing on this part).
+static RING_A: ConstStaticCell<[u16; RING_WORDS]> = ConstStaticCell::new([0; RING_WORDS]);
+static RING_B: ConstStaticCell<[u16; RING_WORDS]> = ConstStaticCell::new([0; RING_WORDS]);
+
+/// Clock plan: HSE 25 MHz → PLL (M 25, N 200, P 2) → SYSCLK 100 MHz, APB1 50 MHz, APB2 100 MHz;
+/// PLLI2S (M 25, N 258, R 3) → 86 MHz I2S kernel clock → MCK = 86 MHz / 7 = 12.286 MHz,
+/// fs = MCK / 256 = 47.991 kHz (−0.019 %, the closest the F411 gets to 48 kHz from a 25 MHz crystal).
+fn clock_config() -> Config {
+    use rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv};
+    use rcc::{PllRDiv, PllSource, Sysclk};
+    let mut config = Config::default();
+    config.rcc.hse = Some(Hse {
+        freq: Hertz::mhz(25),
+        mode: HseMode::Oscillator,
+    });
+    config.rcc.pll_src = PllSource::HSE;
+    config.rcc.pll = Some(Pll {
+        prediv: PllPreDiv::DIV25,
+        mul: PllMul::MUL200,
+        divp: Some(PllPDiv::DIV2),
+        divq: Some(PllQDiv::DIV4),
+        divr: None,
+    });
+    config.rcc.plli2s = Some(Pll {
+        prediv: PllPreDiv::DIV25,
+        mul: PllMul::MUL258,
+        divp: None,
+        divq: None,
+        divr: Some(PllRDiv::DIV3),
+    });
+    config.rcc.sys = Sysclk::PLL1_P;
+    config.rcc.ahb_pre = AHBPrescaler::DIV1;
+    config.rcc.apb1_pre = APBPrescaler::DIV2;
+    config.rcc.apb2_pre = APBPrescaler::DIV1;
+    config
+}
+
+/// The capture overran: samples were lost. The streams have been realigned when this is returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub struct Overrun;
+
+/// The four capsules: two I2S receivers on shared bit and word clocks (I2S2 master, I2S3 slave).
+pub struct AudioIn {
+    a: I2S<'static, u16>,
+    b: I2S<'static, u16>,
+    words_a: [u16; BLOCK_WORDS],
+    words_b: [u16; BLOCK_WORDS],
+}
+
+impl AudioIn {
+    /// Starts capturing: the slave first, so that it sees the master's first word-select edge.
+    pub fn start(&mut self) {
+        self.b.start();
+        self.a.start();
+    }
+
+    /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
+    /// channel order (omni, card 0°, card 120°, card 240°).
+    ///
+    /// On a DMA overrun of either receiver both are stopped and restarted together, so the four
+    /// channels are sample-aligned again, and [`Overrun`] is returned; `out` is then not written.
+    pub async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
+        let (ra, rb) = embassy_futures::join::join(
+            self.a.read(&mut self.words_a),
+            self.b.read(&mut self.words_b),
+        )
+        .await;
+        if ra.is_err() || rb.is_err() {
+            self.resync().await;
+            return Err(Overrun);
+        }
+        interleave_stereo_pairs(&self.words_a, &self.words_b, out);
+        Ok(())
+    }
+
+    async fn resync(&mut self) {
+        // Stopping the master first stops the shared clocks; the slave then restarts in step with it.
+        self.a.stop().await;
+        self.b.stop().await;
+        self.start();
+    }
+}
+
+/// The frame-stream UART (transmit only, DMA).
+pub type FrameTx = UartTx<'static, Async>;
+
+/// The independent watchdog.
+pub type Watchdog = IndependentWatchdog<'static, peripherals::IWDG>;
+
+/// The board's drivers, ready to be moved into tasks.
+pub struct Board {
+    /// The four capsules.
+    pub audio: AudioIn,
+    /// The frame-stream UART.
+    pub uart: FrameTx,
+    /// The watchdog (not yet started).
+    pub watchdog: Watchdog,
+}
+
+/// Configures clocks and peripherals.
+pub fn init() -> Board {
+    let p = embassy_stm32::init(clock_config());
+
+    let mut cfg_a = i2s::Config::default();
+    cfg_a.mode = i2s::Mode::Master;
+    cfg_a.standard = i2s::Standard::Philips;
+    cfg_a.format = i2s::Format::Data24Channel32;
+    cfg_a.frequency = Hertz::hz(SAMPLE_RATE_HZ);
+    cfg_a.master_clock = true;
+    let a = I2S::new_rxonly(
+        p.SPI2,
+        p.PB15,
+        p.PB12,
+        p.PB13,
+        p.PA3,
+        p.DMA1_CH3,
+        RING_A.take(),
+        Irqs,
+        cfg_a,
+    );
+
+    let mut cfg_b = cfg_a;
+    cfg_b.mode = i2s::Mode::Slave;
+    cfg_b.master_clock = false;
+    let b = I2S::new_rxonly_nomck(
+        p.SPI3,
+        p.PB5,
+        p.PA15,
+        p.PB3,
+        p.DMA1_CH0,
+        RING_B.take(),
+        Irqs,
+        cfg_b,
+    );
+
+    let mut uart_cfg = usart::Config::default();
+    uart_cfg.baudrate = UART_BAUD;
+    // Note(unwrap): 115200 baud from a 100 MHz APB2 is always reachable.
+    let uart = UartTx::new(p.USART1, p.PA9, p.DMA2_CH7, Irqs, uart_cfg).unwrap();
+
+    let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
+
+    Board {
+        audio: AudioIn {
+            a,
+            b,
+            words_a: [0; BLOCK_WORDS],
+            words_b: [0; BLOCK_WORDS],
+        },
+        uart,
+        watchdog,
+    }
+}

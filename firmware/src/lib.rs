@@ -1,0 +1,12 @@
+//! Chip-independent parts of the array-board firmware, built for the host too so they are unit tested.
+//!
+//! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
+//!   sample frames in the core's channel order;
+//! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
+//!
+//! The embassy application itself (`src/main.rs`, `src/app.rs`, `src/board.rs`) only builds for the target.
+#![no_std]
+
+pub mod sample;
+pub mod stats;
+pub mod wire_compat;

@@ -1,0 +1,95 @@
+//! The part of the QEMU check shared by the host and the emulated Cortex-M4F: a deterministic test
+//! scene, the program's modes, and the text form of an estimate that both sides print.
+//!
+//! The target program (`src/main.rs`) runs a mode and prints over semihosting; the host test
+//! (`tests/qemu.rs`) runs the same code natively and compares the output byte for byte, so every
+//! `f32` of every estimate must agree to the last bit. `scripts/cost.sh` runs the other modes under an
+//! instruction-counting TCG plugin.
+#![no_std]
+
+pub mod scene;
+pub mod stages;
+
+use cma_core::Estimate;
+use core::fmt;
+
+/// RAM address of the mode word (and of its argument at `+4`), outside everything the program links;
+/// QEMU's `-device loader,addr=…,data=…,data-len=4` sets it, and RAM starts zeroed, so 0 is the default.
+pub const MODE_ADDR: u32 = 0x2030_0000;
+
+/// What the target program does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Run the whole scene through the localizer and print every estimate ([`EstimateBits`]).
+    Check,
+    /// Generate and process `arg` hops of the scene without printing.
+    Pipeline,
+    /// Only generate `arg` hops of the scene (subtracted from [`Mode::Pipeline`]).
+    Generate,
+    /// Run one stage `arg` times on a fixed analysis frame ([`stages::Stage`]).
+    Stage(stages::Stage),
+}
+
+impl Mode {
+    /// The mode of a mode word.
+    #[must_use]
+    pub fn from_word(w: u32) -> Option<Self> {
+        Some(match w {
+            0 => Mode::Check,
+            1 => Mode::Pipeline,
+            2 => Mode::Generate,
+            w => Mode::Stage(stages::Stage::from_word(w)?),
+        })
+    }
+}
+
+/// An estimate with every float as its bit pattern, one line:
+/// `<frame> <centre> <az> <raw> <conf> <power> <flags>` (floats as 8 hex digits).
+pub struct EstimateBits<'a>(pub &'a Estimate);
+
+impl fmt::Display for EstimateBits<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let e = self.0;
+        write!(
+            f,
+            "{} {} {:08x} {:08x} {:08x} {:08x} {:02x}",
+            e.frame_index,
+            e.centre_sample,
+            e.azimuth_deg.to_bits(),
+            e.azimuth_raw_deg.to_bits(),
+            e.confidence.to_bits(),
+            e.power.to_bits(),
+            e.flags.0
+        )
+    }
+}
+
+/// Sample frames per block fed to the localizer (any size gives the same estimates).
+pub const BLOCK: usize = 256;
+
+/// Generates `hops` hops of the scene block by block and, when `process` is set, runs them through a
+/// default [`cma_core::Locator`] at 48 kHz, calling `on_estimate` for each estimate.
+///
+/// # Panics
+/// Never for the default configuration (it is valid at 48 kHz).
+pub fn run_scene(hops: usize, process: bool, mut on_estimate: impl FnMut(&Estimate)) {
+    let mut locator = cma_core::Locator::new(
+        cma_core::LocatorConfig::default(),
+        cma_core::ReferenceTable::ideal_5deg(),
+        scene::RATE_HZ,
+    )
+    .expect("default configuration is valid at 48 kHz");
+    let mut scene = scene::Scene::new();
+    let mut block = [[0.0f32; cma_core::CHANNELS]; BLOCK];
+    let mut left = hops * scene::HOP_SAMPLES;
+    while left > 0 {
+        let n = left.min(BLOCK);
+        scene.fill(&mut block[..n]);
+        if process {
+            locator.process_block(&block[..n], &mut on_estimate);
+        } else {
+            core::hint::black_box(&block);
+        }
+        left -= n;
+    }
+}

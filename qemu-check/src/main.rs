@@ -1,0 +1,82 @@
+//! The QEMU check program for the Cortex-M4F (`qemu-system-arm -machine mps2-an386`).
+//!
+//! It reads a mode word at [`qemu_check::MODE_ADDR`] (0 unless QEMU's generic loader sets it) and
+//! * mode 0: runs the test scene through the localizer and prints every estimate's bits over
+//!   semihosting, then `END <count>`;
+//! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
+//!   instruction counting (`scripts/cost.sh`).
+//!
+//! It exits QEMU with status 0, or 1 after a panic or a HardFault.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod target {
+    use core::mem::MaybeUninit;
+    use cortex_m_rt::{entry, exception, ExceptionFrame};
+    use cortex_m_semihosting::{debug, hprintln};
+    use qemu_check::{run_scene, stages::Bench, EstimateBits, Mode, MODE_ADDR};
+
+    #[entry]
+    fn main() -> ! {
+        // Note(unsafe): MODE_ADDR is RAM of the mps2-an386 outside every linked section (see memory.x);
+        // QEMU zeroes it or its loader writes it before the program starts.
+        #[allow(unsafe_code)]
+        let (word, arg) = unsafe {
+            (
+                core::ptr::read_volatile(MODE_ADDR as *const u32),
+                core::ptr::read_volatile((MODE_ADDR + 4) as *const u32) as usize,
+            )
+        };
+        match Mode::from_word(word) {
+            Some(Mode::Check) => {
+                let mut n = 0u32;
+                run_scene(qemu_check::scene::SCENE_HOPS, true, |e| {
+                    hprintln!("{}", EstimateBits(e));
+                    n += 1;
+                });
+                hprintln!("END {}", n);
+            }
+            Some(Mode::Pipeline) => run_scene(arg, true, |e| {
+                core::hint::black_box(e);
+            }),
+            Some(Mode::Generate) => run_scene(arg, false, |_| {}),
+            Some(Mode::Stage(stage)) => {
+                let mut slot = MaybeUninit::uninit();
+                let bench = Bench::new(&mut slot);
+                for _ in 0..arg {
+                    bench.run(stage);
+                }
+                core::hint::black_box(bench.num_peaks());
+            }
+            None => {
+                hprintln!("unknown mode {}", word);
+                debug::exit(debug::EXIT_FAILURE);
+            }
+        }
+        debug::exit(debug::EXIT_SUCCESS);
+        loop {}
+    }
+
+    #[panic_handler]
+    fn panic(info: &core::panic::PanicInfo) -> ! {
+        hprintln!("PANIC {}", info);
+        debug::exit(debug::EXIT_FAILURE);
+        loop {}
+    }
+
+    // Note(unsafe): cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
+    #[allow(unsafe_code)]
+    #[exception]
+    unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+        hprintln!("HARDFAULT at pc {:#010x}", frame.pc());
+        debug::exit(debug::EXIT_FAILURE);
+        loop {}
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "qemu-check: build with --target thumbv7em-none-eabihf and run under qemu-system-arm"
+    );
+}

@@ -1,0 +1,236 @@
+//! The pipeline's stages one at a time, on a fixed analysis frame of the scene, for per-stage
+//! instruction counts (run a stage R times and once; the difference over R − 1 is its cost).
+//!
+//! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at 48 kHz.
+
+use crate::scene::{Scene, HOP_SAMPLES};
+use cma_core::decimator::{Decimator, DecimatorState};
+use cma_core::features::feature_from_powers;
+use cma_core::framer::Framer;
+use cma_core::input_guard::{InputGuard, InputGuardState};
+use cma_core::interpolation::argmax_parabolic;
+use cma_core::noisy_reference::NoisyReferences;
+use cma_core::peak_picker::{PeakPicker, Peaks};
+use cma_core::reliability::{curve_variance, CurveFilter};
+use cma_core::similarity::CurveBuilder;
+use cma_core::spectrum::{power, windowed_spectrum};
+use cma_core::{LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, NUM_BINS};
+use core::hint::black_box;
+use microfft::Complex32;
+
+/// One stage of the similarity pipeline, per analysis hop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Input guard, ×4 decimation of four channels and framing of one hop (1024 input samples).
+    FrontEnd,
+    /// The four windowed FFTs.
+    Spectra,
+    /// Omni power spectrum and peak picking.
+    Peaks,
+    /// Features at the peaks and the similarity curve against the noisy references.
+    Similarity,
+    /// Curve variance, reliability filter and the two interpolated argmax.
+    Reliability,
+}
+
+impl Stage {
+    /// All stages, in pipeline order.
+    pub const ALL: [Stage; 5] = [
+        Stage::FrontEnd,
+        Stage::Spectra,
+        Stage::Peaks,
+        Stage::Similarity,
+        Stage::Reliability,
+    ];
+
+    /// Mode word of the stage (3…7).
+    #[must_use]
+    pub fn word(self) -> u32 {
+        3 + Self::ALL.iter().position(|s| *s == self).unwrap_or(0) as u32
+    }
+
+    /// The stage of a mode word.
+    #[must_use]
+    pub fn from_word(w: u32) -> Option<Self> {
+        Self::ALL.get(w.checked_sub(3)? as usize).copied()
+    }
+
+    /// Short name for tables.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::FrontEnd => "front-end",
+            Stage::Spectra => "spectra",
+            Stage::Peaks => "peaks",
+            Stage::Similarity => "similarity",
+            Stage::Reliability => "reliability",
+        }
+    }
+}
+
+/// Inputs and state of all stages (large: keep it in a `static` or on a big stack).
+pub struct Bench {
+    input: [[f32; CHANNELS]; HOP_SAMPLES],
+    frame: [[f32; FRAME_LEN]; CHANNELS],
+    scratch: [f32; FRAME_LEN],
+    spectra: [[Complex32; NUM_BINS]; CHANNELS],
+    omni_power: [f32; NUM_BINS],
+    peaks: Peaks,
+    curve: [f32; MAX_AZIMUTHS],
+    filter: CurveFilter,
+    framer: Framer,
+    dec: Decimator,
+    dec_state: [DecimatorState; CHANNELS],
+    guard: InputGuard,
+    guard_state: InputGuardState,
+    picker: PeakPicker,
+    curves: CurveBuilder,
+    table: ReferenceTable<'static>,
+}
+
+impl Bench {
+    /// Fills the analysis frame with 0.55 s of the scene (a voiced syllable) and prepares each stage's
+    /// input by running the stages before it once.
+    ///
+    /// # Panics
+    /// Never for the default configuration (the `expect`s document build-time invariants).
+    pub fn new(out: &mut core::mem::MaybeUninit<Bench>) -> &mut Bench {
+        let c = LocatorConfig::default();
+        let dec = Decimator::for_rate(48_000).expect("48 kHz is supported");
+        let fs = dec.output_rate() as f32;
+        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
+        let b = out.write(Bench {
+            input: [[0.0; CHANNELS]; HOP_SAMPLES],
+            frame: [[0.0; FRAME_LEN]; CHANNELS],
+            scratch: [0.0; FRAME_LEN],
+            spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
+            omni_power: [0.0; NUM_BINS],
+            peaks: Peaks::default(),
+            curve: [0.0; MAX_AZIMUTHS],
+            filter: CurveFilter::new(),
+            framer: Framer::new(),
+            dec,
+            dec_state: [DecimatorState::new(); CHANNELS],
+            guard: InputGuard {
+                clip_level: c.clip_level,
+                hold_samples: 4 * (FRAME_LEN as u32 + 64),
+            },
+            guard_state: InputGuardState::default(),
+            picker: PeakPicker {
+                lo_bin: bin_of(c.band_lo_hz).max(1),
+                hi_bin: bin_of(c.band_hi_hz).min(NUM_BINS - 2),
+                num_peaks: c.num_peaks,
+                min_power: c.peak_threshold * c.peak_threshold,
+                fill: c.fill_peaks,
+            },
+            curves: CurveBuilder {
+                measure: c.measure,
+                noisy: NoisyReferences::new(
+                    c.noise_mixing,
+                    c.snr_from_db,
+                    c.snr_to_db,
+                    c.snr_step_db,
+                )
+                .expect("default SNR sets are valid"),
+                mean_free: c.mean_free,
+            },
+            table: ReferenceTable::ideal_5deg(),
+        });
+        let mut scene = Scene::new();
+        for _ in 0..26 {
+            scene.fill(&mut b.input);
+            b.front_end();
+        }
+        b.framer.take_frame(&mut b.frame);
+        b.spectra();
+        b.peaks();
+        b.similarity();
+        b
+    }
+
+    /// Runs `stage` once.
+    pub fn run(&mut self, stage: Stage) {
+        match stage {
+            Stage::FrontEnd => self.front_end(),
+            Stage::Spectra => self.spectra(),
+            Stage::Peaks => self.peaks(),
+            Stage::Similarity => self.similarity(),
+            Stage::Reliability => self.reliability(),
+        }
+    }
+
+    fn front_end(&mut self) {
+        for x in black_box(&self.input).iter() {
+            let mut x = *x;
+            self.guard.process(&mut self.guard_state, &mut x);
+            let mut y = [0.0f32; CHANNELS];
+            let mut ready = false;
+            for ((out, st), v) in y.iter_mut().zip(self.dec_state.iter_mut()).zip(x) {
+                if let Some(s) = self.dec.process(st, v) {
+                    *out = s;
+                    ready = true;
+                }
+            }
+            if ready {
+                black_box(self.framer.push(y));
+            }
+        }
+    }
+
+    fn spectra(&mut self) {
+        for ch in 0..CHANNELS {
+            windowed_spectrum(
+                black_box(&self.frame[ch]),
+                &mut self.scratch,
+                &mut self.spectra[ch],
+            );
+        }
+    }
+
+    fn peaks(&mut self) {
+        for (p, c) in self
+            .omni_power
+            .iter_mut()
+            .zip(black_box(&self.spectra[0]).iter())
+        {
+            *p = power(*c);
+        }
+        self.picker.process(&self.omni_power, &mut self.peaks);
+    }
+
+    fn similarity(&mut self) {
+        let q = self.table.num_azimuths();
+        let curve = &mut self.curve[..q];
+        curve.fill(0.0);
+        let mut weight_sum = 0.0f32;
+        for i in 0..self.peaks.len {
+            let k = self.peaks.bins[i] as usize;
+            let s = black_box(&self.spectra);
+            let pc = [power(s[1][k]), power(s[2][k]), power(s[3][k])];
+            let Some(y) = feature_from_powers(self.omni_power[k], pc) else {
+                continue;
+            };
+            self.curves.accumulate(&self.table, 0, y, 1.0, curve);
+            weight_sum += 1.0;
+        }
+        let inv = 1.0 / weight_sum;
+        for c in curve.iter_mut() {
+            *c *= inv;
+        }
+    }
+
+    fn reliability(&mut self) {
+        let c = LocatorConfig::default();
+        let curve = black_box(&self.curve[..self.table.num_azimuths()]);
+        let b = c.reliability.coefficient(curve_variance(curve));
+        black_box(argmax_parabolic(curve, self.table.azimuths_deg()));
+        let filtered = self.filter.update(b, curve);
+        black_box(argmax_parabolic(filtered, self.table.azimuths_deg()));
+    }
+
+    /// Number of peaks the fixed frame yields (for the report).
+    #[must_use]
+    pub fn num_peaks(&self) -> usize {
+        self.peaks.len
+    }
+}
