@@ -105,11 +105,14 @@ mod tests {
             enabled: true,
             speed: 2.0,
             v_max: 0.01,
+            exponent: 1.0,
         };
         assert_eq!(r.coefficient(0.0), 0.0);
         assert!((r.coefficient(0.002) - 0.4).abs() < 1e-6);
         assert_eq!(r.coefficient(1.0), 1.0);
         assert_eq!(r.coefficient(f32::NAN), 0.0);
+        let sq = Reliability { exponent: 2.0, ..r };
+        assert!((sq.coefficient(0.005) - 0.5).abs() < 1e-6);
         assert_eq!(
             Reliability {
                 enabled: false,
