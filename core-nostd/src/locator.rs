@@ -103,10 +103,11 @@ impl<'t> Locator<'t> {
             return Err(Error::InvalidConfig("poles: need 0 ≤ a < 1"));
         }
         let d = c.direct_sound;
-        if !(d.directness_exponent >= 0.0 && d.onset_exponent >= 0.0)
-            || !(0.0..1.0).contains(&d.onset_pole)
-            || !(0.0..=1.0).contains(&d.onset_floor)
-        {
+        let direct_ok = d.directness_exponent >= 0.0
+            && d.onset_exponent >= 0.0
+            && (0.0..1.0).contains(&d.onset_pole)
+            && (0.0..=1.0).contains(&d.onset_floor);
+        if !direct_ok {
             return Err(Error::InvalidConfig(
                 "direct_sound: exponents ≥ 0, 0 ≤ pole < 1, 0 ≤ floor ≤ 1",
             ));

@@ -48,7 +48,7 @@ impl<'a> ReferenceTable<'a> {
     ) -> Result<Self, Error> {
         let q = azimuths_deg.len();
         let f = freqs_hz.len();
-        if q < 3 || q > MAX_AZIMUTHS {
+        if !(3..=MAX_AZIMUTHS).contains(&q) {
             return Err(Error::InvalidConfig(
                 "reference table needs 3..=360 azimuths",
             ));

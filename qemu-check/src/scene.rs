@@ -95,7 +95,7 @@ impl Scene {
     /// Writes the next `out.len()` sample frames (omni, card 0°, card 120°, card 240°; full scale ±1).
     pub fn fill(&mut self, out: &mut [[f32; CHANNELS]]) {
         for frame in out.iter_mut() {
-            if self.n % SEGMENT == 0 {
+            if self.n.is_multiple_of(SEGMENT) {
                 let seg = (self.n / SEGMENT) as usize % AZIMUTHS_DEG.len();
                 self.set_position(AZIMUTHS_DEG[seg]);
             }
