@@ -29,9 +29,11 @@ pub enum Tracking {
 
 /// The grid tracker's settings of the product configuration.
 pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
-    sharpness: 20.0,
-    diffusion_deg: 2.0,
+    sharpness: 60.0,
+    diffusion_deg: 1.0,
     jump_probability: 0.01,
+    velocity_pole: 0.98,
+    min_velocity_deg: 0.3,
 };
 
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or
@@ -103,6 +105,7 @@ impl LocatorConfig {
                 enabled: true,
                 speed: 1.0,
                 v_max: 0.02,
+                v_floor: 0.0,
                 exponent: 1.0,
             },
             tracking: Tracking::OnePole,
@@ -117,9 +120,15 @@ impl LocatorConfig {
 }
 
 impl Default for LocatorConfig {
-    /// The product configuration: the thesis method plus the measured improvements
-    /// (see the README's accuracy table for what each one buys).
+    /// The product configuration: the thesis method plus the measured improvements (README,
+    /// "Accuracy"): onset weighting of peaks, a variance floor and a tighter scale for b, and the
+    /// Bayesian grid tracker with velocity drift instead of the one-pole curve filter.
     fn default() -> Self {
-        Self::thesis()
+        let mut c = Self::thesis();
+        c.reliability.v_floor = 0.0006;
+        c.reliability.v_max = 0.002;
+        c.direct_sound.onset_exponent = 1.0;
+        c.tracking = Tracking::Grid(DEFAULT_GRID_TRACKER);
+        c
     }
 }

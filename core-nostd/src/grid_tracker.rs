@@ -24,7 +24,16 @@ pub struct GridTracker {
     pub diffusion_deg: f32,
     /// Probability ε per frame that the talker jumped anywhere.
     pub jump_probability: f32,
+    /// Pole of the angular-velocity estimate that drifts the prediction (0 disables the drift).
+    /// With it the prior moves with a moving talker, so the estimate does not trail behind.
+    pub velocity_pole: f32,
+    /// Dead zone of the drift, degrees per frame: slower velocity estimates (noise around a still
+    /// talker) do not move the prior, faster ones move it by their excess.
+    pub min_velocity_deg: f32,
 }
+
+/// Frame-to-frame changes larger than this (degrees) are jumps, not motion, for the velocity estimate.
+const MAX_MOTION_STEP_DEG: f32 = 8.0;
 
 /// The posterior over the grid.
 #[derive(Debug, Clone)]
@@ -32,6 +41,10 @@ pub struct GridTrackerState {
     posterior: [f32; MAX_AZIMUTHS],
     scratch: [f32; MAX_AZIMUTHS],
     initialized: bool,
+    /// Estimated angular velocity, degrees per frame.
+    velocity: f32,
+    /// Previous reported azimuth, degrees (NaN before the first).
+    previous: f32,
 }
 
 impl Default for GridTrackerState {
@@ -48,7 +61,15 @@ impl GridTrackerState {
             posterior: [0.0; MAX_AZIMUTHS],
             scratch: [0.0; MAX_AZIMUTHS],
             initialized: false,
+            velocity: 0.0,
+            previous: f32::NAN,
         }
+    }
+
+    /// Estimated angular velocity, degrees per frame.
+    #[must_use]
+    pub fn velocity(&self) -> f32 {
+        self.velocity
     }
 
     /// The posterior over the first `n` grid points.
@@ -87,14 +108,30 @@ impl GridTracker {
             state.posterior[..q].fill(uniform);
             state.initialized = true;
         }
-        // Predict: circular 3-tap diffusion plus the jump floor.
-        let a = self.kernel_side(spacing_deg);
+        // Predict: circular 3-tap kernel with mean = drift and variance = diffusion (bins), plus
+        // the jump floor. Mass moves from bin j to j + 1 with weight `up`.
+        let var = 2.0 * self.kernel_side(spacing_deg);
+        let v = state.velocity;
+        let v = if v.abs() > self.min_velocity_deg {
+            v
+        } else {
+            0.0
+        };
+        let shift = if spacing_deg > 0.0 {
+            (v / spacing_deg).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        };
+        let second = (var + shift * shift).min(1.0);
+        let up = (0.5 * (second + shift)).max(0.0);
+        let down = (0.5 * (second - shift)).max(0.0);
+        let stay = (1.0 - up - down).max(0.0);
         let eps = self.jump_probability.clamp(0.0, 1.0);
         let p = &state.posterior[..q];
         for i in 0..q {
             let l = p[if i == 0 { q - 1 } else { i - 1 }];
             let r = p[if i + 1 == q { 0 } else { i + 1 }];
-            let d = a * (l + r) + (1.0 - 2.0 * a) * p[i];
+            let d = up * l + down * r + stay * p[i];
             state.scratch[i] = (1.0 - eps) * d + eps * uniform;
         }
         // Update with the tempered likelihood.
@@ -120,6 +157,18 @@ impl GridTracker {
             state.posterior[..q].fill(uniform);
         }
         &state.posterior[..q]
+    }
+
+    /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate.
+    pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32) {
+        if self.velocity_pole > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
+            let d = crate::angle::wrap_deg(azimuth_deg - state.previous);
+            if d.abs() <= MAX_MOTION_STEP_DEG {
+                let a = self.velocity_pole.clamp(0.0, 1.0);
+                state.velocity = a * state.velocity + (1.0 - a) * d;
+            }
+        }
+        state.previous = azimuth_deg;
     }
 }
 
@@ -152,6 +201,8 @@ mod tests {
             sharpness: 20.0,
             diffusion_deg: 2.0,
             jump_probability: 0.01,
+            velocity_pole: 0.0,
+            min_velocity_deg: 0.0,
         };
         let mut s = GridTrackerState::new();
         for _ in 0..20 {
@@ -180,6 +231,8 @@ mod tests {
             sharpness: 20.0,
             diffusion_deg: 2.0,
             jump_probability: 0.01,
+            velocity_pole: 0.0,
+            min_velocity_deg: 0.0,
         };
         let mut s = GridTrackerState::new();
         t.update(&mut s, &[f32::NAN; 72], 1.0, 5.0);

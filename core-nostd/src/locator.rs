@@ -94,9 +94,14 @@ impl<'t> Locator<'t> {
             return Err(Error::InvalidConfig("num_peaks: 1..=32"));
         }
         let r = c.reliability;
-        if !(r.speed >= 0.0 && r.v_max > 0.0 && r.speed.is_finite() && r.v_max.is_finite()) {
+        if !(r.speed >= 0.0
+            && r.v_max > r.v_floor
+            && r.v_floor >= 0.0
+            && r.speed.is_finite()
+            && r.v_max.is_finite())
+        {
             return Err(Error::InvalidConfig(
-                "reliability: need K ≥ 0 and V_max > 0",
+                "reliability: need K ≥ 0 and V_max > V_floor ≥ 0",
             ));
         }
         if !(0.0..1.0).contains(&c.tdiv_pole) || !(0.0..1.0).contains(&c.fdiv_pole) {
@@ -414,6 +419,9 @@ impl<'t> Locator<'t> {
             flags.insert(Flags::NO_HISTORY);
             raw.unwrap_or(self.last_azimuth)
         };
+        if let Tracking::Grid(t) = self.config.tracking {
+            t.observe_estimate(&mut self.tracker, azimuth);
+        }
         self.last_azimuth = azimuth;
         (azimuth, raw.unwrap_or(azimuth), b)
     }

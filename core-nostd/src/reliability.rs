@@ -13,19 +13,21 @@ pub struct Reliability {
     pub speed: f32,
     /// Scale V_max of the curve variance (eq. 5.33).
     pub v_max: f32,
+    /// Variance floor V_0: frames at or below it get b = 0 (0 in the thesis).
+    pub v_floor: f32,
     /// Exponent p of the scaled variance: b = clip(K·(V/V_max)^p, 0, 1). The thesis uses p = 1;
     /// p > 1 suppresses the many mediocre frames of a noisy room while keeping good frames fast.
     pub exponent: f32,
 }
 
 impl Reliability {
-    /// b = clip(K · (V / V_max)^p, 0, 1); 0 for a non-finite V.
+    /// b = clip(K · ((V − V_0) / (V_max − V_0))^p, 0, 1); 0 for a non-finite V.
     #[must_use]
     pub fn coefficient(&self, variance: f32) -> f32 {
         if !self.enabled {
             return 1.0;
         }
-        let r = (variance / self.v_max).max(0.0);
+        let r = ((variance - self.v_floor) / (self.v_max - self.v_floor)).max(0.0);
         let scaled = if self.exponent == 1.0 {
             r
         } else if self.exponent == 2.0 {
@@ -105,6 +107,7 @@ mod tests {
             enabled: true,
             speed: 2.0,
             v_max: 0.01,
+            v_floor: 0.0,
             exponent: 1.0,
         };
         assert_eq!(r.coefficient(0.0), 0.0);

@@ -85,6 +85,9 @@ pub struct ConfigArgs {
     /// Curve-variance scale V_max of the reliability weighting.
     #[arg(long)]
     pub vmax: Option<f32>,
+    /// Curve-variance floor V_0 of the reliability weighting (b = 0 at or below it).
+    #[arg(long)]
+    pub vfloor: Option<f32>,
     /// Exponent p of the reliability coefficient b = clip(K·(V/V_max)^p, 0, 1).
     #[arg(long)]
     pub reliability_exponent: Option<f32>,
@@ -97,6 +100,12 @@ pub struct ConfigArgs {
     /// Grid tracker: random-walk step per frame, degrees.
     #[arg(long)]
     pub diffusion: Option<f32>,
+    /// Grid tracker: pole of the angular-velocity estimate (0 = no drift).
+    #[arg(long)]
+    pub velocity_pole: Option<f32>,
+    /// Grid tracker: dead zone of the velocity drift, degrees per frame.
+    #[arg(long)]
+    pub min_velocity: Option<f32>,
     /// Grid tracker: jump probability per frame.
     #[arg(long)]
     pub jump_prob: Option<f32>,
@@ -158,6 +167,9 @@ impl ConfigArgs {
         if let Some(v) = self.vmax {
             c.reliability.v_max = v;
         }
+        if let Some(v) = self.vfloor {
+            c.reliability.v_floor = v;
+        }
         if let Some(v) = self.reliability_exponent {
             c.reliability.exponent = v;
         }
@@ -170,6 +182,12 @@ impl ConfigArgs {
         }
         if let Some(v) = self.diffusion {
             grid.diffusion_deg = v;
+        }
+        if let Some(v) = self.velocity_pole {
+            grid.velocity_pole = v;
+        }
+        if let Some(v) = self.min_velocity {
+            grid.min_velocity_deg = v;
         }
         if let Some(v) = self.jump_prob {
             grid.jump_probability = v;
