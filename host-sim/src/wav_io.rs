@@ -36,9 +36,14 @@ pub fn read_interleaved(path: &Path) -> Result<(hound::WavSpec, Vec<f32>)> {
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         ));
     }
-    let reader = hound::WavReader::open(path).map_err(|e| match e {
-        hound::Error::IoError(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
-            SimError::io(path, io)
+    let file = std::fs::File::open(path).map_err(|e| SimError::io(path, e))?;
+    let reader = hound::WavReader::new(std::io::BufReader::new(file)).map_err(|e| match e {
+        hound::Error::IoError(io) => bad(format!("header unreadable ({io})")),
+        hound::Error::FormatError(msg) if msg.contains("bits per sample") => {
+            SimError::SampleFormat {
+                path: path.to_path_buf(),
+                format: msg.to_string(),
+            }
         }
         hound::Error::Unsupported => SimError::SampleFormat {
             path: path.to_path_buf(),

@@ -1,0 +1,211 @@
+//! Every error path of the CLI gives a clear message (and no panic, no half-written output).
+
+use cma_tests::{host_sim, make_scene, path_in};
+use std::path::Path;
+
+fn err_of(args: &[&str]) -> String {
+    match host_sim(args) {
+        Ok(()) => panic!("{args:?} should fail"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn write_wav(path: &Path, channels: u16, rate: u32, bits: u16, float: bool, frames: usize) {
+    let spec = hound::WavSpec {
+        channels,
+        sample_rate: rate,
+        bits_per_sample: bits,
+        sample_format: if float {
+            hound::SampleFormat::Float
+        } else {
+            hound::SampleFormat::Int
+        },
+    };
+    let mut w = hound::WavWriter::create(path, spec).unwrap();
+    for i in 0..frames * channels as usize {
+        if float {
+            w.write_sample((i as f32 * 0.01).sin() * 0.1).unwrap();
+        } else {
+            w.write_sample(((i as f32 * 0.01).sin() * 1000.0) as i32)
+                .unwrap();
+        }
+    }
+    w.finalize().unwrap();
+}
+
+#[test]
+fn missing_file() {
+    let m = err_of(&["locate", "/nonexistent/x.wav"]);
+    assert!(
+        m.contains("/nonexistent/x.wav") && m.contains("no such file"),
+        "{m}"
+    );
+}
+
+#[test]
+fn empty_and_non_wav_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = path_in(dir.path(), "empty.wav");
+    std::fs::write(&empty, b"").unwrap();
+    let m = err_of(&["locate", &empty]);
+    assert!(m.contains("not a valid WAV"), "{m}");
+    let text = path_in(dir.path(), "text.wav");
+    std::fs::write(&text, b"this is not audio at all, just some text bytes").unwrap();
+    let m = err_of(&["locate", &text]);
+    assert!(m.contains("not a valid WAV"), "{m}");
+    let zero = path_in(dir.path(), "zero.wav");
+    write_wav(Path::new(&zero), 4, 16000, 16, false, 0);
+    let m = err_of(&["locate", &zero]);
+    assert!(m.contains("no samples"), "{m}");
+}
+
+#[test]
+fn truncated_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(dir.path(), "t.wav", &["--synth", "1", "--azimuth", "0"]);
+    let bytes = std::fs::read(&wav).unwrap();
+    let cut = path_in(dir.path(), "cut.wav");
+    std::fs::write(&cut, &bytes[..bytes.len() - 3]).unwrap();
+    let m = err_of(&["locate", &cut]);
+    assert!(m.contains("truncated"), "{m}");
+    let header_only = path_in(dir.path(), "hdr.wav");
+    std::fs::write(&header_only, &bytes[..30]).unwrap();
+    let m = err_of(&["locate", &header_only]);
+    assert!(m.contains("not a valid WAV"), "{m}");
+}
+
+#[test]
+fn wrong_channel_count_and_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let stereo = path_in(dir.path(), "stereo.wav");
+    write_wav(Path::new(&stereo), 2, 16000, 16, false, 1000);
+    let m = err_of(&["locate", &stereo]);
+    assert!(
+        m.contains("expected 4 channels") && m.contains("got 2"),
+        "{m}"
+    );
+    let odd = path_in(dir.path(), "odd.wav");
+    write_wav(Path::new(&odd), 4, 22000, 16, false, 1000);
+    let m = err_of(&["locate", &odd]);
+    assert!(m.contains("unsupported sample rate 22000"), "{m}");
+    let m = err_of(&[
+        "scene",
+        "--out",
+        &path_in(dir.path(), "x.wav"),
+        "--synth",
+        "1",
+        "--rate",
+        "8000",
+    ]);
+    assert!(m.contains("unsupported sample rate 8000"), "{m}");
+    assert!(!dir.path().join("x.wav").exists());
+}
+
+#[test]
+fn unsupported_sample_format() {
+    let dir = tempfile::tempdir().unwrap();
+    // 64-bit float PCM: a valid WAV, not a format the tool reads.
+    let p = path_in(dir.path(), "f64.wav");
+    let (ch, rate, bits, n) = (4u16, 16000u32, 64u16, 100u32);
+    let block = ch * bits / 8;
+    let data = n * block as u32;
+    let mut b = Vec::new();
+    b.extend_from_slice(b"RIFF");
+    b.extend_from_slice(&(36 + data).to_le_bytes());
+    b.extend_from_slice(b"WAVEfmt ");
+    b.extend_from_slice(&16u32.to_le_bytes());
+    b.extend_from_slice(&3u16.to_le_bytes());
+    b.extend_from_slice(&ch.to_le_bytes());
+    b.extend_from_slice(&rate.to_le_bytes());
+    b.extend_from_slice(&(rate * block as u32).to_le_bytes());
+    b.extend_from_slice(&block.to_le_bytes());
+    b.extend_from_slice(&bits.to_le_bytes());
+    b.extend_from_slice(b"data");
+    b.extend_from_slice(&data.to_le_bytes());
+    b.resize(b.len() + data as usize, 0);
+    std::fs::write(&p, b).unwrap();
+    let m = err_of(&["locate", &p]);
+    assert!(m.contains("unsupported sample format"), "{m}");
+}
+
+#[test]
+fn bad_flags() {
+    let m = err_of(&["locate", "x.wav", "--grid", "7"]);
+    assert!(m.contains("--grid") || m.contains("x.wav"), "{m}");
+    let m = err_of(&["locate", "x.wav", "--measure", "l-3"]);
+    assert!(m.contains("--measure") || m.contains("x.wav"), "{m}");
+    let m = err_of(&["frobnicate"]);
+    assert!(m.contains("unrecognized subcommand"), "{m}");
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(dir.path(), "ok.wav", &["--synth", "1", "--azimuth", "0"]);
+    let w = wav.to_string_lossy().into_owned();
+    let m = err_of(&["locate", &w, "--peaks", "0"]);
+    assert!(m.contains("num_peaks"), "{m}");
+    let m = err_of(&["locate", &w, "--band-hi", "9000"]);
+    assert!(m.contains("band"), "{m}");
+    let m = err_of(&[
+        "scene",
+        "--out",
+        &path_in(dir.path(), "y.wav"),
+        "--synth",
+        "1",
+        "--track",
+        "0:10,x:20",
+    ]);
+    assert!(m.contains("--track"), "{m}");
+    let m = err_of(&["scene", "--out", &path_in(dir.path(), "y.wav")]);
+    assert!(m.contains("--source") && m.contains("--synth"), "{m}");
+}
+
+#[test]
+fn bad_manifest_and_truth_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_string_lossy().into_owned();
+    let m = err_of(&["eval", &d]);
+    assert!(m.contains("manifest.csv"), "{m}");
+    std::fs::write(dir.path().join("manifest.csv"), "wrong,header\n").unwrap();
+    let m = err_of(&["eval", &d]);
+    assert!(m.contains("expected header"), "{m}");
+    std::fs::write(
+        dir.path().join("manifest.csv"),
+        "file,set,score_from_s,score_to_s,note\na.wav,x,zero,1,\n",
+    )
+    .unwrap();
+    let m = err_of(&["eval", &d]);
+    assert!(m.contains(":2:") && m.contains("not a number"), "{m}");
+    make_scene(dir.path(), "a.wav", &["--synth", "1", "--azimuth", "0"]);
+    std::fs::write(
+        dir.path().join("manifest.csv"),
+        "file,set,score_from_s,score_to_s,note\na.wav,x,0.3,1,\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("a.pos.csv"),
+        "t_s,azimuth_deg,elevation_deg,distance_m\n0,abc,0,1\n",
+    )
+    .unwrap();
+    let m = err_of(&["eval", &d]);
+    assert!(
+        m.contains("a.pos.csv:2") && m.contains("not a number"),
+        "{m}"
+    );
+    std::fs::remove_file(dir.path().join("a.pos.csv")).unwrap();
+    let m = err_of(&["eval", &d]);
+    assert!(m.contains("a.pos.csv"), "{m}");
+}
+
+#[test]
+fn bad_estimate_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("r.csv");
+    std::fs::write(&p, "t_s,azimuth_deg\n0.1,3\n").unwrap();
+    let e = host_sim::locate::read_csv(&p).unwrap_err().to_string();
+    assert!(e.contains("missing column `azimuth_raw_deg`"), "{e}");
+    std::fs::write(
+        &p,
+        "t_s,azimuth_deg,azimuth_raw_deg,confidence\n0.1,3,NaN,1\n",
+    )
+    .unwrap();
+    let e = host_sim::locate::read_csv(&p).unwrap_err().to_string();
+    assert!(e.contains(":2:"), "{e}");
+}

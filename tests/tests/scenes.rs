@@ -1,0 +1,233 @@
+//! The whole chain on scenes made by the project's own simulator: static talkers at several
+//! azimuths, a jump, a circling talker, noise only, a 48 kHz PCM24 file, and an evaluation folder.
+
+use cma_tests::{errors_after, host_sim, locate, make_scene, median, path_in};
+
+#[test]
+fn static_talkers_are_found_at_several_azimuths() {
+    let dir = tempfile::tempdir().unwrap();
+    for (i, az) in [-150.0f64, -75.0, 0.0, 33.0, 100.0, 175.0]
+        .iter()
+        .enumerate()
+    {
+        let a = format!("{az}");
+        let seed = format!("{}", i + 1);
+        let wav = make_scene(
+            dir.path(),
+            &format!("s{i}.wav"),
+            &[
+                "--synth",
+                "3",
+                "--azimuth",
+                &a,
+                "--snr",
+                "10",
+                "--seed",
+                &seed,
+            ],
+        );
+        let rows = locate(&wav, &[]);
+        let err = errors_after(&rows, 1.0, *az);
+        let within = err.iter().filter(|e| **e <= 10.0).count() as f64 / err.len() as f64;
+        assert!(
+            within >= 0.95,
+            "azimuth {az}: only {:.0} % within 10°",
+            100.0 * within
+        );
+        assert!(
+            median(&err) < 4.0,
+            "azimuth {az}: median error {}",
+            median(&err)
+        );
+    }
+}
+
+#[test]
+fn thesis_preset_and_baselines_also_localize() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(
+        dir.path(),
+        "b.wav",
+        &["--synth", "3", "--azimuth", "60", "--snr", "20"],
+    );
+    for flags in [
+        &["--preset", "thesis"][..],
+        &["--method", "fdiv"],
+        &["--method", "tdiv"],
+        &["--grid", "15"],
+    ] {
+        let rows = locate(&wav, flags);
+        let err = errors_after(&rows, 1.5, 60.0);
+        assert!(
+            median(&err) < 8.0,
+            "{flags:?}: median error {}",
+            median(&err)
+        );
+    }
+}
+
+#[test]
+fn a_jump_is_followed() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(
+        dir.path(),
+        "j.wav",
+        &["--synth", "5", "--track", "0:20,2.5:-120", "--snr", "15"],
+    );
+    let rows = locate(&wav, &[]);
+    let before = errors_after(
+        &rows
+            .iter()
+            .filter(|r| r.t_s < 2.5)
+            .copied()
+            .collect::<Vec<_>>(),
+        1.0,
+        20.0,
+    );
+    assert!(median(&before) < 5.0);
+    let after = errors_after(&rows, 3.5, -120.0);
+    assert!(
+        median(&after) < 5.0,
+        "after the jump: median error {}",
+        median(&after)
+    );
+}
+
+#[test]
+fn a_circling_talker_is_followed_without_lag() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(
+        dir.path(),
+        "m.wav",
+        &[
+            "--synth",
+            "8",
+            "--rotate",
+            "30",
+            "--start-azimuth",
+            "-90",
+            "--snr",
+            "15",
+        ],
+    );
+    let rows = locate(&wav, &[]);
+    let track = host_sim::ground_truth::Track::read(&wav.with_extension("pos.csv")).unwrap();
+    let errs: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.t_s > 2.0 && r.t_s < 8.0)
+        .map(|r| host_sim::ground_truth::wrap180(r.azimuth_deg - track.azimuth_at(r.t_s)))
+        .collect();
+    let bias = errs.iter().sum::<f64>() / errs.len() as f64;
+    assert!(bias.abs() < 5.0, "mean error (lag) {bias}°");
+    assert!(median(&errs.iter().map(|e| e.abs()).collect::<Vec<_>>()) < 6.0);
+}
+
+#[test]
+fn noise_only_gives_low_confidence_and_no_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    // A talker 60 dB below the noise: effectively noise only.
+    let wav = make_scene(
+        dir.path(),
+        "n.wav",
+        &["--synth", "3", "--azimuth", "0", "--snr", "-60"],
+    );
+    let rows = locate(&wav, &[]);
+    assert!(!rows.is_empty());
+    let mean_conf = rows.iter().map(|r| r.confidence).sum::<f64>() / rows.len() as f64;
+    let speech = make_scene(
+        dir.path(),
+        "s.wav",
+        &["--synth", "3", "--azimuth", "0", "--snr", "20"],
+    );
+    let srows = locate(&speech, &[]);
+    let speech_conf = srows.iter().map(|r| r.confidence).sum::<f64>() / srows.len() as f64;
+    assert!(
+        mean_conf < 0.5 * speech_conf,
+        "noise confidence {mean_conf} vs speech {speech_conf}"
+    );
+}
+
+#[test]
+fn pcm24_48k_and_float_files_work() {
+    let dir = tempfile::tempdir().unwrap();
+    for fmt in ["pcm24", "float"] {
+        let wav = make_scene(
+            dir.path(),
+            &format!("h{fmt}.wav"),
+            &[
+                "--synth",
+                "3",
+                "--azimuth",
+                "-45",
+                "--snr",
+                "10",
+                "--rate",
+                "48000",
+                "--format",
+                fmt,
+            ],
+        );
+        let rows = locate(&wav, &[]);
+        // 48 kHz: one estimate per 1024 input samples.
+        assert!(
+            (rows.len() as f64 - 3.25 * 48000.0 / 1024.0).abs() < 4.0,
+            "{} rows",
+            rows.len()
+        );
+        assert!(median(&errors_after(&rows, 1.0, -45.0)) < 4.0);
+    }
+}
+
+#[test]
+fn eval_scores_a_generated_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = path_in(dir.path(), "manifest.csv");
+    for (i, az) in ["10", "-100"].iter().enumerate() {
+        let seed = format!("{}", i + 3);
+        make_scene(
+            dir.path(),
+            &format!("e{i}.wav"),
+            &[
+                "--synth",
+                "3",
+                "--azimuth",
+                az,
+                "--snr",
+                "10",
+                "--seed",
+                &seed,
+                "--manifest",
+                &manifest,
+                "--set",
+                "gen",
+            ],
+        );
+    }
+    let (report, scenes) = host_sim::eval::evaluate(
+        dir.path(),
+        cma_core::LocatorConfig::default(),
+        cma_core::ReferenceTable::ideal_5deg(),
+        host_sim::wav_io::InputLayout::Cma1,
+        2,
+        &|_| {},
+    )
+    .unwrap();
+    assert_eq!(scenes.len(), 2);
+    assert_eq!(report.sets[0].set, "gen");
+    assert!(
+        report.overall.settled.acc_at(10) > 90.0,
+        "{:?}",
+        report.overall.settled
+    );
+    let plots = dir.path().join("plots");
+    let p = plots.to_string_lossy().into_owned();
+    host_sim(&[
+        "eval",
+        dir.path().to_str().unwrap(),
+        "--json",
+        "--plots",
+        &p,
+    ])
+    .unwrap();
+    assert!(plots.join("accuracy.png").exists() && plots.join("e0.png").exists());
+}
