@@ -258,6 +258,25 @@ fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec<f64>; 3] {
     out
 }
 
+/// First and last sample of the talker's activity: the span of 10 ms blocks whose RMS is within
+/// 30 dB of the loudest block (so leading and trailing silence of a recording is not scored).
+#[must_use]
+pub fn talker_activity(source: &[f64], rate: u32) -> (usize, usize) {
+    let block = (rate as usize / 100).max(1);
+    let rms: Vec<f64> = source
+        .chunks(block)
+        .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / c.len() as f64).sqrt())
+        .collect();
+    let peak = rms.iter().fold(0.0f64, |m, v| m.max(*v));
+    let active = |r: &&f64| **r > 0.0316 * peak && peak > 0.0;
+    let first = rms.iter().position(|r| active(&r)).unwrap_or(0);
+    let last = rms
+        .iter()
+        .rposition(|r| active(&r))
+        .map_or(source.len(), |i| ((i + 1) * block).min(source.len()));
+    (first * block, last)
+}
+
 /// Synthesises a scene.
 #[must_use]
 pub fn synthesize(spec: &SceneSpec) -> Scene {
@@ -312,11 +331,12 @@ pub fn synthesize(spec: &SceneSpec) -> Scene {
                 .collect(),
         },
     };
+    let (first, last) = talker_activity(&spec.source, spec.rate);
     Scene {
         frames,
         rate: spec.rate,
         track,
-        active_s: (active.0 as f64 / rate, active.1 as f64 / rate),
+        active_s: ((lead + first) as f64 / rate, (lead + last) as f64 / rate),
     }
 }
 
