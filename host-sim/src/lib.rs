@@ -15,6 +15,7 @@ pub mod metrics;
 pub mod monitor;
 pub mod plots;
 pub mod scene;
+pub mod score;
 pub mod serial_link;
 pub mod signal;
 pub mod wav_io;
@@ -52,6 +53,8 @@ pub enum Command {
     Monitor(monitor::MonitorArgs),
     /// Stand-in board: run the core on a WAV and write the frame lines to a serial port.
     Emit(emit::EmitArgs),
+    /// Score an estimate CSV (e.g. a `monitor --record`) against a truth .pos.csv, like eval.
+    Score(score::ScoreArgs),
 }
 
 /// `host-sim locate`.
@@ -179,6 +182,7 @@ where
         Command::Scene(a) => cmd_scene(&a),
         Command::Monitor(a) => monitor::run(&a),
         Command::Emit(a) => emit::run(&a),
+        Command::Score(a) => score::run(&a),
     }
 }
 

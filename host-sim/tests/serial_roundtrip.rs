@@ -295,7 +295,32 @@ fn emit_to_monitor_round_trip_equals_locate() {
     // The record reads back as an estimate CSV (what eval/score use).
     let back = locate::read_csv(&rec).expect("read record");
     assert_eq!(back.len(), frames.len());
-    eprintln!("round trip: {} frames identical", frames.len());
+    // `host-sim score` of the record matches that of locate's CSV to the wire's resolution.
+    let truth = wav.with_extension("pos.csv");
+    let score = |csv: &Path| {
+        host_sim::score::report(&host_sim::score::ScoreArgs {
+            estimates: csv.to_path_buf(),
+            truth: truth.clone(),
+            from: 0.0,
+            to: None,
+            json: false,
+        })
+        .expect("score")
+        .overall
+        .settled
+    };
+    let (m_rec, m_loc) = (score(&rec), score(&loc_csv));
+    assert_eq!(m_rec.frames, m_loc.frames);
+    assert!(
+        (m_rec.mae - m_loc.mae).abs() <= 0.05,
+        "{m_rec:?} vs {m_loc:?}"
+    );
+    eprintln!(
+        "round trip: {} frames identical; score MAE {:.3}° (record) vs {:.3}° (locate)",
+        frames.len(),
+        m_rec.mae,
+        m_loc.mae
+    );
 }
 
 /// xorshift64*: a small seeded generator, so the corruption is reproducible.
