@@ -148,7 +148,7 @@ impl Link {
 }
 
 /// Writes all of `bytes` to `port`, retrying on write time-outs (a full output buffer) until
-/// `deadline` has passed without progress.
+/// `stall` has passed without progress.
 pub fn write_all(
     port: &mut dyn SerialPort,
     path: &Path,
