@@ -50,6 +50,7 @@ pub mod similarity;
 pub mod spectrum;
 pub mod tables;
 pub mod tdiv;
+pub mod wire;
 
 pub use config::{LocatorConfig, Method};
 pub use error::Error;

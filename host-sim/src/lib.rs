@@ -5,14 +5,18 @@
 //! The binary `host-sim` is a thin wrapper around [`run`].
 
 pub mod config_args;
+pub mod emit;
 pub mod error;
 pub mod eval;
 pub mod ground_truth;
 pub mod locate;
 pub mod manifest;
 pub mod metrics;
+pub mod monitor;
 pub mod plots;
 pub mod scene;
+pub mod score;
+pub mod serial_link;
 pub mod signal;
 pub mod wav_io;
 
@@ -45,6 +49,12 @@ pub enum Command {
     Eval(EvalArgs),
     /// Synthesise a CMA1 scene (WAV + .pos.csv) from a talker, a track, diffuse noise and a room.
     Scene(SceneArgs),
+    /// Show the frame stream of a board on a serial port live (or --plain), optionally --record it.
+    Monitor(monitor::MonitorArgs),
+    /// Stand-in board: run the core on a WAV and write the frame lines to a serial port.
+    Emit(emit::EmitArgs),
+    /// Score an estimate CSV (e.g. a `monitor --record`) against a truth .pos.csv, like eval.
+    Score(score::ScoreArgs),
 }
 
 /// `host-sim locate`.
@@ -170,6 +180,9 @@ where
         Command::Locate(a) => cmd_locate(&a),
         Command::Eval(a) => cmd_eval(&a),
         Command::Scene(a) => cmd_scene(&a),
+        Command::Monitor(a) => monitor::run(&a),
+        Command::Emit(a) => emit::run(&a),
+        Command::Score(a) => score::run(&a),
     }
 }
 

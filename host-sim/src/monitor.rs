@@ -1,0 +1,759 @@
+//! `host-sim monitor`: reads the board's frame lines from a serial port, decodes them with the core's
+//! [`cma_core::wire`] decoder and shows them — a live compass view in a terminal, or one text line per
+//! frame (`--plain`, also when stdout is not a terminal) — with counters for corrupt lines, lost frames
+//! (sequence gaps) and the board's own overrun/drop counters. `--record` writes the frames as the CSV of
+//! `host-sim locate` for `host-sim eval`/`host-sim score`.
+//!
+//! Counter definitions (exact, the serial round-trip test checks them):
+//! - *frames*: lines that decoded;
+//! - *corrupt lines*: candidate lines (`$` … `\n`) that did not decode, plus partial lines cut short
+//!   by a `$` and lines longer than [`MAX_LINE`] ([`LineAssembler`]'s `interrupted` and `overlong`);
+//! - *lost frames*: sequence numbers missing between consecutive decoded frames (`seq` steps of 2 or
+//!   more, modulo 2³²); a step backwards (by 2³¹ or more, a board restart) counts as a *restart*, a
+//!   repeated `seq` as a *duplicate*, neither as lost;
+//! - *garbage bytes*: bytes outside any line (before a `$`).
+
+use crate::error::{Result, SimError};
+use crate::locate::CSV_HEADER;
+use crate::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
+use cma_core::wire::{self, AssemblerStats, DecodeError, Frame, LineAssembler, MAX_LINE};
+use cma_core::Flags;
+use std::collections::VecDeque;
+use std::fmt::Write as _;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// `host-sim monitor`.
+#[derive(Debug, clap::Args)]
+pub struct MonitorArgs {
+    /// Serial device (e.g. /dev/ttyUSB0, /dev/ttyACM0, or a socat pty).
+    #[arg(long)]
+    pub port: PathBuf,
+    /// Baud rate (8N1, no flow control).
+    #[arg(long, default_value_t = DEFAULT_BAUD,
+          value_parser = clap::value_parser!(u32).range(serial_link::BAUD_RANGE))]
+    pub baud: u32,
+    /// One text line per frame instead of the live view (automatic when stdout is not a terminal).
+    #[arg(long)]
+    pub plain: bool,
+    /// Record the frames to this CSV (the columns of `host-sim locate`; power_db is empty: not sent).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Exit after this many seconds without a byte (default: run until interrupted).
+    #[arg(long, value_name = "SECONDS")]
+    pub exit_after_idle: Option<f64>,
+    /// Exit after this many decoded frames.
+    #[arg(long)]
+    pub frames: Option<u64>,
+}
+
+/// Monitor counters (see the module documentation for the exact definitions).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Bytes received.
+    pub bytes: u64,
+    /// Frames decoded.
+    pub frames: u64,
+    /// Candidate lines rejected by the decoder, cut short by a `$`, or too long.
+    pub corrupt_lines: u64,
+    /// Sequence numbers missing between consecutive decoded frames.
+    pub lost_frames: u64,
+    /// Number of sequence gaps (one gap may lose several frames).
+    pub gap_events: u64,
+    /// Frames whose `seq` repeated the previous one.
+    pub duplicates: u64,
+    /// Frames whose `seq` went backwards (board restarted).
+    pub restarts: u64,
+    /// Bytes outside any line.
+    pub garbage_bytes: u64,
+    /// The board's DMA overrun counter, from the last frame.
+    pub board_overruns: u32,
+    /// The board's UART backpressure drop counter, from the last frame.
+    pub board_dropped: u32,
+}
+
+impl Counters {
+    /// `key=value` pairs on one line (the monitor's summary; stable for scripts).
+    pub fn summary(&self, reopens: u64) -> String {
+        format!(
+            "frames={} corrupt_lines={} lost_frames={} gap_events={} duplicates={} restarts={} \
+             garbage_bytes={} bytes={} board_overruns={} board_dropped={} reopens={}",
+            self.frames,
+            self.corrupt_lines,
+            self.lost_frames,
+            self.gap_events,
+            self.duplicates,
+            self.restarts,
+            self.garbage_bytes,
+            self.bytes,
+            self.board_overruns,
+            self.board_dropped,
+            reopens
+        )
+    }
+}
+
+/// Bytes without a decoded frame after which the monitor suspects a wrong baud rate.
+pub const WRONG_BAUD_BYTES: u64 = 8 * MAX_LINE as u64;
+
+/// The byte-stream decoder of the monitor: line assembly, decoding, counters. No I/O.
+#[derive(Debug, Clone, Default)]
+pub struct Decoder {
+    asm: LineAssembler<MAX_LINE>,
+    seen: AssemblerStats,
+    counters: Counters,
+    last_seq: Option<u32>,
+    bytes_since_frame: u64,
+    last_error: Option<DecodeError>,
+}
+
+impl Decoder {
+    /// A decoder waiting for the first `$`.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Feeds received bytes; `on_frame` gets each decoded frame.
+    pub fn feed(&mut self, bytes: &[u8], mut on_frame: impl FnMut(&Frame)) {
+        let Decoder {
+            asm,
+            counters,
+            last_seq,
+            bytes_since_frame,
+            last_error,
+            ..
+        } = self;
+        counters.bytes += bytes.len() as u64;
+        for &b in bytes {
+            *bytes_since_frame += 1;
+            let Some(line) = asm.push(b) else { continue };
+            match wire::decode(line) {
+                Ok(f) => {
+                    count_seq(counters, last_seq, f.seq);
+                    counters.frames += 1;
+                    counters.board_overruns = f.overruns;
+                    counters.board_dropped = f.dropped;
+                    *bytes_since_frame = 0;
+                    on_frame(&f);
+                }
+                Err(e) => {
+                    counters.corrupt_lines += 1;
+                    *last_error = Some(e);
+                }
+            }
+        }
+        self.absorb_assembler_stats();
+    }
+
+    /// Drops a partial line (after the port was reopened: its rest is lost).
+    pub fn reset_line(&mut self) {
+        self.asm.reset();
+        self.absorb_assembler_stats();
+    }
+
+    fn absorb_assembler_stats(&mut self) {
+        let s = self.asm.stats();
+        let d = |now: u32, before: u32| u64::from(now.wrapping_sub(before));
+        self.counters.corrupt_lines += d(s.interrupted, self.seen.interrupted);
+        self.counters.corrupt_lines += d(s.overlong, self.seen.overlong);
+        self.counters.garbage_bytes += d(s.garbage_bytes, self.seen.garbage_bytes);
+        self.seen = s;
+    }
+
+    /// The counters so far.
+    #[must_use]
+    pub fn counters(&self) -> Counters {
+        self.counters
+    }
+
+    /// Why the last rejected line was rejected.
+    #[must_use]
+    pub fn last_error(&self) -> Option<DecodeError> {
+        self.last_error
+    }
+
+    /// Bytes received since the last decoded frame (or since the start).
+    #[must_use]
+    pub fn bytes_since_frame(&self) -> u64 {
+        self.bytes_since_frame
+    }
+
+    /// The wrong-baud hint, when [`WRONG_BAUD_BYTES`] or more arrived without a decoded frame.
+    #[must_use]
+    pub fn baud_hint(&self, baud: u32) -> Option<String> {
+        (self.bytes_since_frame >= WRONG_BAUD_BYTES).then(|| {
+            let suggestion = if baud == DEFAULT_BAUD {
+                "check the board's UART setting; common rates: 9600, 57600, 230400, 460800, 921600"
+                    .to_string()
+            } else {
+                format!("try --baud {DEFAULT_BAUD}")
+            };
+            format!(
+                "no valid frames in {} bytes — wrong baud rate? ({suggestion})",
+                self.bytes_since_frame
+            )
+        })
+    }
+}
+
+fn count_seq(c: &mut Counters, last: &mut Option<u32>, seq: u32) {
+    if let Some(prev) = *last {
+        let step = seq.wrapping_sub(prev);
+        if step == 0 {
+            c.duplicates += 1;
+        } else if step >= 1 << 31 {
+            c.restarts += 1;
+        } else if step > 1 {
+            c.lost_frames += u64::from(step - 1);
+            c.gap_events += 1;
+        }
+    }
+    *last = Some(seq);
+}
+
+/// One `--plain` line for a frame.
+#[must_use]
+pub fn plain_line(f: &Frame) -> String {
+    let t = f
+        .time_s()
+        .map_or_else(|| "?".to_string(), |t| format!("{t:.6}"));
+    format!(
+        "seq={} t_s={t} az={:.1} raw={:.1} conf={:.3} flags={:02X}{} ovr={} drop={}",
+        f.seq,
+        f64::from(f.azimuth_tenths) / 10.0,
+        f64::from(f.raw_tenths) / 10.0,
+        f64::from(f.confidence_permille) / 1000.0,
+        f.flags,
+        flag_names(f.flags()),
+        f.overruns,
+        f.dropped
+    )
+}
+
+fn flag_names(flags: Flags) -> String {
+    const NAMES: [(Flags, &str); 5] = [
+        (Flags::SILENT, "SILENT"),
+        (Flags::CLIPPED, "CLIPPED"),
+        (Flags::NON_FINITE, "NON_FINITE"),
+        (Flags::NO_PEAKS, "NO_PEAKS"),
+        (Flags::NO_HISTORY, "NO_HISTORY"),
+    ];
+    let names: Vec<&str> = NAMES
+        .iter()
+        .filter(|(f, _)| flags.contains(*f))
+        .map(|(_, n)| *n)
+        .collect();
+    if names.is_empty() {
+        String::new()
+    } else {
+        format!("({})", names.join("|"))
+    }
+}
+
+/// One `--record` CSV row (columns [`CSV_HEADER`]): `frame` is the line's `seq` (the core's frame
+/// index when the board starts at 0 and drops nothing), `t_s` = `t / rate_hz` formatted as by
+/// `locate`, azimuths and confidence at the wire's resolution, `power_db` empty (not transmitted),
+/// `flags` decimal. `None` if the frame's sample rate is 0 (no time).
+#[must_use]
+pub fn csv_row(f: &Frame) -> Option<String> {
+    let t = f.time_s()?;
+    Some(format!(
+        "{},{:.6},{:.2},{:.2},{:.4},,{}",
+        f.seq,
+        t,
+        f64::from(f.azimuth_tenths) / 10.0,
+        f64::from(f.raw_tenths) / 10.0,
+        f64::from(f.confidence_permille) / 1000.0,
+        f.flags
+    ))
+}
+
+/// Writes `--record` rows incrementally, flushed after each row.
+struct Recorder {
+    path: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+    skipped_no_rate: u64,
+}
+
+impl Recorder {
+    fn create(path: &Path) -> Result<Recorder> {
+        let f = std::fs::File::create(path).map_err(|e| SimError::io(path, e))?;
+        let mut r = Recorder {
+            path: path.to_path_buf(),
+            out: std::io::BufWriter::new(f),
+            skipped_no_rate: 0,
+        };
+        writeln!(r.out, "{CSV_HEADER}")
+            .and_then(|()| r.out.flush())
+            .map_err(|e| SimError::io(path, e))?;
+        Ok(r)
+    }
+
+    fn write(&mut self, f: &Frame) -> Result<()> {
+        let Some(row) = csv_row(f) else {
+            self.skipped_no_rate += 1;
+            return Ok(());
+        };
+        writeln!(self.out, "{row}")
+            .and_then(|()| self.out.flush())
+            .map_err(|e| SimError::io(&self.path, e))
+    }
+}
+
+/// Arrival rate of frames over the last few seconds.
+#[derive(Debug, Default)]
+struct RateMeter {
+    arrivals: VecDeque<Instant>,
+}
+
+impl RateMeter {
+    const WINDOW: Duration = Duration::from_secs(3);
+
+    fn tick(&mut self, now: Instant) {
+        self.arrivals.push_back(now);
+        while self
+            .arrivals
+            .front()
+            .is_some_and(|t| now.duration_since(*t) > Self::WINDOW)
+        {
+            self.arrivals.pop_front();
+        }
+    }
+
+    fn per_second(&self, now: Instant) -> f64 {
+        match (self.arrivals.front(), self.arrivals.back()) {
+            (Some(first), Some(_)) if self.arrivals.len() >= 2 => {
+                if now.duration_since(*first) > Self::WINDOW * 2 {
+                    return 0.0;
+                }
+                let span = now.duration_since(*first).as_secs_f64();
+                if span > 0.0 {
+                    (self.arrivals.len() - 1) as f64 / span
+                } else {
+                    0.0
+                }
+            }
+            _ => 0.0,
+        }
+    }
+}
+
+/// Half-height of the compass rose in rows (its width is twice as many columns each side, since
+/// terminal cells are about twice as tall as wide).
+const ROSE_R: i32 = 8;
+
+/// Draws the compass rose: 0° up, counter-clockwise positive (90° to the left, as seen from above),
+/// the weighted azimuth as a needle of `*` ending in `@`, the single-frame azimuth as `x` on the
+/// ring. Returns `2 R + 1` rows of `4 R + 1 + 8` characters (labels included).
+#[must_use]
+pub fn draw_rose(azimuth_deg: Option<f64>, raw_deg: Option<f64>, confidence: f64) -> Vec<String> {
+    let r = ROSE_R;
+    let (w, h) = ((4 * r + 1 + 8) as usize, (2 * r + 1) as usize);
+    let (cx, cy) = (2 * r + 4, r);
+    let mut grid = vec![vec![' '; w]; h];
+    let put = |grid: &mut Vec<Vec<char>>, a_deg: f64, radius: f64, ch: char| {
+        let a = a_deg.to_radians();
+        let col = cx + (-a.sin() * radius * 2.0 * f64::from(r)).round() as i32;
+        let row = cy + (-a.cos() * radius * f64::from(r)).round() as i32;
+        if let Some(cell) = grid
+            .get_mut(row as usize)
+            .and_then(|line| line.get_mut(col as usize))
+        {
+            *cell = ch;
+        }
+    };
+    for step in 0..120 {
+        let a = f64::from(step) * 3.0;
+        put(&mut grid, a, 1.0, if step % 10 == 0 { '+' } else { '.' });
+    }
+    let label = |grid: &mut Vec<Vec<char>>, row: i32, col: i32, text: &str| {
+        for (i, ch) in text.chars().enumerate() {
+            if let Some(cell) = grid
+                .get_mut(row as usize)
+                .and_then(|l| l.get_mut(col as usize + i))
+            {
+                *cell = ch;
+            }
+        }
+    };
+    label(&mut grid, 0, cx - 1, " 0 ");
+    label(&mut grid, cy, 0, "90");
+    label(&mut grid, cy, cx + 2 * r + 2, "-90");
+    label(&mut grid, 2 * r, cx - 1, "180");
+    grid[cy as usize][cx as usize] = 'o';
+    if let Some(az) = azimuth_deg {
+        // A confident needle is drawn solid, a doubtful one dotted.
+        let ch = if confidence >= 0.5 { '*' } else { ':' };
+        for i in 2..=8 {
+            put(&mut grid, az, f64::from(i) / 10.0, ch);
+        }
+        put(&mut grid, az, 0.9, '@');
+    }
+    if let Some(raw) = raw_deg {
+        put(&mut grid, raw, 1.0, 'x');
+    }
+    grid.into_iter().map(|l| l.into_iter().collect()).collect()
+}
+
+/// What the live view shows.
+struct View<'a> {
+    port: &'a Path,
+    baud: u32,
+    connected: bool,
+    last: Option<&'a Frame>,
+    counters: Counters,
+    reopens: u64,
+    fps: f64,
+    status: Option<String>,
+    recording: Option<&'a Path>,
+}
+
+fn render(v: &View<'_>) -> String {
+    let (az, raw, conf) = match v.last {
+        Some(f) => (
+            Some(f64::from(f.azimuth_tenths) / 10.0),
+            Some(f64::from(f.raw_tenths) / 10.0),
+            f64::from(f.confidence_permille) / 1000.0,
+        ),
+        None => (None, None, 0.0),
+    };
+    let rose = draw_rose(az, raw, conf);
+    let c = &v.counters;
+    let mut info: Vec<String> = Vec::new();
+    let deg = |x: Option<f64>| x.map_or_else(|| "   --".to_string(), |a| format!("{a:7.1}°"));
+    info.push(format!("azimuth     {}", deg(az)));
+    info.push(format!("raw (x)     {}", deg(raw)));
+    let bar = (conf * 20.0).round() as usize;
+    info.push(format!(
+        "confidence  {conf:7.3}  [{}{}]",
+        "#".repeat(bar),
+        " ".repeat(20 - bar.min(20))
+    ));
+    if let Some(f) = v.last {
+        info.push(format!(
+            "flags       {:02X} {}",
+            f.flags,
+            flag_names(f.flags())
+        ));
+        info.push(format!(
+            "board time  {} (seq {})",
+            f.time_s()
+                .map_or_else(|| "?".to_string(), |t| format!("{t:.3} s")),
+            f.seq
+        ));
+        info.push(format!("sample rate {} Hz", f.rate_hz));
+    } else {
+        info.push("waiting for frames…".into());
+    }
+    info.push(String::new());
+    info.push(format!("frame rate  {:7.1} /s", v.fps));
+    info.push(format!("frames      {:7}", c.frames));
+    info.push(format!("corrupt     {:7} lines", c.corrupt_lines));
+    info.push(format!(
+        "lost        {:7} frames in {} gaps",
+        c.lost_frames, c.gap_events
+    ));
+    info.push(format!(
+        "board       overruns {}  dropped {}",
+        c.board_overruns, c.board_dropped
+    ));
+    info.push(format!(
+        "port        {} @ {} {}{}",
+        v.port.display(),
+        v.baud,
+        if v.connected {
+            "connected"
+        } else {
+            "DISCONNECTED"
+        },
+        if v.reopens > 0 {
+            format!(" (reopened {}×)", v.reopens)
+        } else {
+            String::new()
+        }
+    ));
+    if let Some(p) = v.recording {
+        info.push(format!("recording   {}", p.display()));
+    }
+    let mut out = String::from("\x1b[H");
+    let _ = writeln!(
+        out,
+        "host-sim monitor — cma talker azimuth (0° = cardioid 1, counter-clockwise)\x1b[K"
+    );
+    let _ = writeln!(out, "\x1b[K");
+    for i in 0..rose.len().max(info.len()) {
+        let left = rose.get(i).map_or("", String::as_str);
+        let right = info.get(i).map_or("", String::as_str);
+        let _ = writeln!(out, "{left:<45}  {right}\x1b[K");
+    }
+    let _ = writeln!(out, "\x1b[K");
+    let _ = writeln!(out, "{}\x1b[K", v.status.as_deref().unwrap_or(""));
+    out.push_str("\x1b[J");
+    out
+}
+
+/// Minimum time between two redraws of the live view (at most 20 per second).
+const REDRAW_INTERVAL: Duration = Duration::from_millis(50);
+
+/// Runs `host-sim monitor`.
+pub fn run(a: &MonitorArgs) -> Result<()> {
+    if let Some(s) = a.exit_after_idle {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(SimError::Usage(format!(
+                "--exit-after-idle must be a positive number of seconds, got {s}"
+            )));
+        }
+    }
+    let mut link = Link::open(&a.port, a.baud)?;
+    eprintln!("monitor: opened {} at {} baud", a.port.display(), a.baud);
+    let live = !a.plain && std::io::stdout().is_terminal();
+    let mut recorder = a.record.as_deref().map(Recorder::create).transpose()?;
+    let mut dec = Decoder::new();
+    let mut meter = RateMeter::default();
+    let mut last: Option<Frame> = None;
+    let mut buf = [0u8; 4096];
+    let mut last_byte = Instant::now();
+    let mut last_draw: Option<Instant> = None;
+    let mut status: Option<String> = None;
+    let mut hint_shown = false;
+    let mut was_connected = true;
+    let stdout = std::io::stdout();
+    if live {
+        print!("\x1b[2J");
+    }
+    loop {
+        let outcome = link.read(&mut buf);
+        let now = Instant::now();
+        match outcome {
+            ReadOutcome::Data(n) => {
+                last_byte = now;
+                let mut failure = None;
+                let mut out = stdout.lock();
+                dec.feed(&buf[..n], |f| {
+                    meter.tick(now);
+                    last = Some(*f);
+                    if !live {
+                        if let Err(e) = writeln!(out, "{}", plain_line(f)) {
+                            failure.get_or_insert(SimError::io("<stdout>", e));
+                        }
+                    }
+                    if let Some(r) = recorder.as_mut() {
+                        if let Err(e) = r.write(f) {
+                            failure.get_or_insert(e);
+                        }
+                    }
+                });
+                if let Err(e) = out.flush() {
+                    failure.get_or_insert(SimError::io("<stdout>", e));
+                }
+                if let Some(e) = failure {
+                    return Err(e);
+                }
+            }
+            ReadOutcome::Idle => {}
+            ReadOutcome::Disconnected => {
+                if was_connected {
+                    let msg = format!(
+                        "port {} lost ({}); waiting for it to come back",
+                        a.port.display(),
+                        link.last_error.as_deref().unwrap_or("unknown error")
+                    );
+                    if !live {
+                        eprintln!("monitor: {msg}");
+                    }
+                    status = Some(msg);
+                    was_connected = false;
+                    dec.reset_line();
+                }
+            }
+            ReadOutcome::Reopened => {
+                let msg = format!("port {} reopened", a.port.display());
+                if !live {
+                    eprintln!("monitor: {msg}");
+                }
+                status = Some(msg);
+                was_connected = true;
+            }
+        }
+        match dec.baud_hint(a.baud) {
+            Some(h) => {
+                if !hint_shown && !live {
+                    eprintln!("monitor: {h}");
+                }
+                hint_shown = true;
+                status = Some(h);
+            }
+            None if hint_shown => {
+                hint_shown = false;
+                status = None;
+            }
+            None => {}
+        }
+        if live && last_draw.is_none_or(|t| now.duration_since(t) >= REDRAW_INTERVAL) {
+            let view = View {
+                port: &a.port,
+                baud: a.baud,
+                connected: link.is_connected(),
+                last: last.as_ref(),
+                counters: dec.counters(),
+                reopens: link.reopens,
+                fps: meter.per_second(now),
+                status: status.clone(),
+                recording: a.record.as_deref(),
+            };
+            let mut out = stdout.lock();
+            let _ = out.write_all(render(&view).as_bytes());
+            let _ = out.flush();
+            last_draw = Some(now);
+        }
+        if a.exit_after_idle
+            .is_some_and(|s| now.duration_since(last_byte).as_secs_f64() >= s)
+        {
+            break;
+        }
+        if a.frames.is_some_and(|n| dec.counters().frames >= n) {
+            break;
+        }
+    }
+    if let Some(r) = &recorder {
+        if r.skipped_no_rate > 0 {
+            eprintln!(
+                "monitor: {} frames with rate_hz 0 not recorded (no time)",
+                r.skipped_no_rate
+            );
+        }
+    }
+    eprintln!("monitor: summary {}", dec.counters().summary(link.reopens));
+    if let Some(e) = dec.last_error() {
+        eprintln!("monitor: last rejected line: {e}");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(seq: u32) -> Vec<u8> {
+        let f = Frame {
+            seq,
+            rate_hz: 48000,
+            centre_sample: 1024 * u64::from(seq),
+            azimuth_tenths: 300,
+            confidence_permille: 900,
+            ..Frame::default()
+        };
+        let mut buf = [0u8; MAX_LINE];
+        let n = wire::encode(&f, &mut buf);
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn counts_gaps_duplicates_restarts_and_corruption() {
+        let mut d = Decoder::new();
+        let mut stream = b"junk".to_vec();
+        for seq in [5, 6, 9, 9, 10, 14, 2] {
+            stream.extend_from_slice(&line(seq));
+        }
+        let mut bad = line(15);
+        bad[10] ^= 1;
+        stream.extend_from_slice(&bad);
+        stream.extend_from_slice(&line(16)[..20]);
+        stream.extend_from_slice(&line(3));
+        let mut seqs = Vec::new();
+        d.feed(&stream, |f| seqs.push(f.seq));
+        assert_eq!(seqs, [5, 6, 9, 9, 10, 14, 2, 3]);
+        let c = d.counters();
+        assert_eq!(c.frames, 8);
+        assert_eq!(c.lost_frames, 2 + 3);
+        assert_eq!(c.gap_events, 2);
+        assert_eq!(c.duplicates, 1);
+        assert_eq!(c.restarts, 1);
+        assert_eq!(c.corrupt_lines, 2);
+        assert_eq!(c.garbage_bytes, 4);
+        assert_eq!(c.bytes, stream.len() as u64);
+        assert!(matches!(d.last_error(), Some(DecodeError::Checksum { .. })));
+    }
+
+    #[test]
+    fn seq_wraps_without_a_gap() {
+        let mut d = Decoder::new();
+        let mut s = line(u32::MAX);
+        s.extend_from_slice(&line(0));
+        d.feed(&s, |_| {});
+        assert_eq!(d.counters().lost_frames, 0);
+        assert_eq!(d.counters().restarts, 0);
+    }
+
+    #[test]
+    fn wrong_baud_hint_after_many_bytes_without_a_frame() {
+        let mut d = Decoder::new();
+        // What 115200-baud text looks like when read at 9600: bytes, but no lines.
+        let noise: Vec<u8> = (0..WRONG_BAUD_BYTES)
+            .map(|i| (i * 37 % 251) as u8)
+            .collect();
+        d.feed(&noise[..100], |_| {});
+        assert!(d.baud_hint(9600).is_none());
+        d.feed(&noise[100..], |_| {});
+        let hint = d.baud_hint(9600).unwrap();
+        assert!(
+            hint.contains("wrong baud rate? (try --baud 115200)"),
+            "{hint}"
+        );
+        assert!(hint.starts_with(&format!("no valid frames in {WRONG_BAUD_BYTES} bytes")));
+        d.feed(&line(1), |_| {});
+        assert!(d.baud_hint(9600).is_none());
+    }
+
+    #[test]
+    fn csv_row_matches_locate_formatting() {
+        let f = Frame {
+            seq: 7,
+            rate_hz: 48000,
+            centre_sample: 7 * 1024 + 256,
+            azimuth_tenths: -1234,
+            raw_tenths: 1800,
+            confidence_permille: 5,
+            flags: 0x12,
+            ..Frame::default()
+        };
+        assert_eq!(
+            csv_row(&f).unwrap(),
+            format!(
+                "7,{:.6},-123.40,180.00,0.0050,,18",
+                (7.0 * 1024.0 + 256.0) / 48000.0
+            )
+        );
+        assert_eq!(csv_row(&Frame::default()), None);
+        assert_eq!(
+            plain_line(&f),
+            "seq=7 t_s=0.154667 az=-123.4 raw=180.0 conf=0.005 flags=12(CLIPPED|NO_HISTORY) ovr=0 drop=0"
+        );
+    }
+
+    #[test]
+    fn rose_puts_the_needle_where_the_azimuth_points() {
+        let up = draw_rose(Some(0.0), None, 1.0);
+        let cx = (2 * ROSE_R + 4) as usize;
+        assert_eq!(up[1].chars().nth(cx), Some('@'));
+        let left = draw_rose(Some(90.0), Some(-90.0), 0.2);
+        let row: Vec<char> = left[ROSE_R as usize].chars().collect();
+        assert_eq!(row[cx - (2.0 * 0.9 * ROSE_R as f64).round() as usize], '@');
+        assert_eq!(row[cx + 2 * ROSE_R as usize], 'x');
+        assert!(row.contains(&':'));
+        let v = View {
+            port: Path::new("/dev/null"),
+            baud: 115200,
+            connected: true,
+            last: None,
+            counters: Counters::default(),
+            reopens: 0,
+            fps: 0.0,
+            status: None,
+            recording: None,
+        };
+        assert!(render(&v).contains("waiting for frames"));
+    }
+}

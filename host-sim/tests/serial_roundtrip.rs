@@ -1,0 +1,559 @@
+//! `host-sim emit` → pseudo-terminal pair (socat) → `host-sim monitor`, through real serial ports.
+//!
+//! Needs Debian's `socat` (`apt-get install socat`); without it these tests FAIL on purpose.
+
+use cma_core::wire::{self, Frame, MAX_LINE};
+use host_sim::locate::{self, CSV_HEADER};
+use host_sim::monitor::plain_line;
+use std::collections::{BTreeSet, HashMap};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_host-sim");
+
+/// A socat-linked pty pair `DIR/ttyA` ↔ `DIR/ttyB`, killed on drop.
+struct PtyPair {
+    child: Child,
+    a: PathBuf,
+    b: PathBuf,
+}
+
+impl PtyPair {
+    fn start(dir: &Path) -> PtyPair {
+        let (a, b) = (dir.join("ttyA"), dir.join("ttyB"));
+        let child = Command::new("socat")
+            .arg("-d")
+            .arg("-d")
+            .arg(format!("pty,raw,echo=0,link={}", a.display()))
+            .arg(format!("pty,raw,echo=0,link={}", b.display()))
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| {
+                panic!(
+                    "cannot run `socat` ({e}): the serial tests need it — install Debian's socat \
+                     (`apt-get install socat`; .ci/run does)"
+                )
+            });
+        let t0 = Instant::now();
+        while !(a.exists() && b.exists()) {
+            assert!(
+                t0.elapsed() < Duration::from_secs(10),
+                "socat did not create {} and {} within 10 s",
+                a.display(),
+                b.display()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        PtyPair { child, a, b }
+    }
+}
+
+impl Drop for PtyPair {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A running `host-sim monitor` whose stderr lines arrive on a channel.
+struct MonitorProc {
+    child: Child,
+    stderr: mpsc::Receiver<String>,
+    stderr_lines: Vec<String>,
+}
+
+impl MonitorProc {
+    fn start(port: &Path, extra: &[&str]) -> MonitorProc {
+        let mut child = Command::new(BIN)
+            .arg("monitor")
+            .arg("--port")
+            .arg(port)
+            .arg("--plain")
+            .args(extra)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run host-sim monitor");
+        let (tx, rx) = mpsc::channel();
+        let err = child.stderr.take().expect("piped stderr");
+        std::thread::spawn(move || {
+            for line in BufReader::new(err).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let mut m = MonitorProc {
+            child,
+            stderr: rx,
+            stderr_lines: Vec::new(),
+        };
+        m.wait_for_stderr("monitor: opened", Duration::from_secs(10));
+        m
+    }
+
+    fn wait_for_stderr(&mut self, needle: &str, timeout: Duration) {
+        let t0 = Instant::now();
+        while !self.stderr_lines.iter().any(|l| l.contains(needle)) {
+            let left = timeout.saturating_sub(t0.elapsed());
+            match self.stderr.recv_timeout(left) {
+                Ok(l) => self.stderr_lines.push(l),
+                Err(_) => panic!(
+                    "monitor did not print `{needle}` within {timeout:?}; stderr so far: {:#?}",
+                    self.stderr_lines
+                ),
+            }
+        }
+    }
+
+    /// Waits for the monitor to exit (it runs with --exit-after-idle); returns stdout and the
+    /// summary counters.
+    fn finish(mut self) -> (String, HashMap<String, u64>) {
+        let mut out = String::new();
+        let mut stdout = self.child.stdout.take().expect("piped stdout");
+        let reader = std::thread::spawn(move || {
+            let mut s = String::new();
+            std::io::Read::read_to_string(&mut stdout, &mut s).expect("read monitor stdout");
+            s
+        });
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = self.child.try_wait().expect("wait monitor") {
+                break s;
+            }
+            if t0.elapsed() > Duration::from_secs(60) {
+                let _ = self.child.kill();
+                panic!("monitor did not exit within 60 s");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        out.push_str(&reader.join().expect("stdout reader"));
+        while let Ok(l) = self.stderr.recv_timeout(Duration::from_secs(2)) {
+            self.stderr_lines.push(l);
+        }
+        assert!(status.success(), "monitor failed: {:#?}", self.stderr_lines);
+        let summary = self
+            .stderr_lines
+            .iter()
+            .find_map(|l| l.strip_prefix("monitor: summary "))
+            .unwrap_or_else(|| panic!("no summary line in {:#?}", self.stderr_lines));
+        let counters = summary
+            .split_whitespace()
+            .map(|kv| {
+                let (k, v) = kv.split_once('=').expect("key=value");
+                (k.to_string(), v.parse().expect("number"))
+            })
+            .collect();
+        (out, counters)
+    }
+}
+
+/// A moving-talker scene WAV at 48 kHz.
+fn scene(dir: &Path, seconds: f64) -> PathBuf {
+    let wav = dir.join("scene.wav");
+    let st = Command::new(BIN)
+        .args(["scene", "--rotate", "45", "--rate", "48000", "--snr", "20"])
+        .args(["--synth", &seconds.to_string()])
+        .arg("--out")
+        .arg(&wav)
+        .status()
+        .expect("run host-sim scene");
+    assert!(st.success());
+    wav
+}
+
+/// What `locate` computes for the WAV (default configuration), as wire frames with seq = index.
+fn locate_frames(wav: &Path) -> (Vec<locate::Row>, Vec<Frame>) {
+    let cli = <host_sim::Cli as clap::Parser>::try_parse_from([
+        "host-sim".into(),
+        "locate".into(),
+        wav.as_os_str().to_owned(),
+    ])
+    .expect("parse locate args");
+    let host_sim::Command::Locate(a) = cli.command else {
+        unreachable!("parsed a locate command")
+    };
+    let rec = host_sim::wav_io::read_recording(&a.input, a.input_layout).expect("read wav");
+    let rows = locate::locate(
+        &rec,
+        a.config.config().expect("config"),
+        a.config.ideal_table().expect("table"),
+        |_| {},
+    )
+    .expect("locate");
+    let frames = rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| Frame::from_estimate(&r.estimate, i as u32, rec.rate, 0, 0))
+        .collect();
+    (rows, frames)
+}
+
+fn wrap180(a: f64) -> f64 {
+    let x = a.rem_euclid(360.0);
+    if x > 180.0 {
+        x - 360.0
+    } else {
+        x
+    }
+}
+
+/// The monitor's record of an emitted WAV equals `locate`'s output:
+/// - same number of rows, `frame` = locate's `frame_index`, `t_s` byte-identical to `locate --csv`;
+/// - `azimuth_deg`, `azimuth_raw_deg` exactly `Frame::from_estimate(locate's estimate)` (0.1°
+///   rounding, wrapped into (−180, 180]), so within 0.05° of locate's value; `confidence` exactly its
+///   per-mille rounding (within 0.0005); `flags` identical; `power_db` empty (not on the wire).
+#[test]
+fn emit_to_monitor_round_trip_equals_locate() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let wav = scene(dir.path(), 4.0);
+    let pty = PtyPair::start(dir.path());
+    let rec = dir.path().join("rec.csv");
+    let mon = MonitorProc::start(
+        &pty.b,
+        &[
+            "--record",
+            rec.to_str().unwrap(),
+            "--exit-after-idle",
+            "1.5",
+        ],
+    );
+    let t0 = Instant::now();
+    let st = Command::new(BIN)
+        .arg("emit")
+        .arg(&wav)
+        .arg("--port")
+        .arg(&pty.a)
+        .status()
+        .expect("run host-sim emit");
+    assert!(st.success());
+    let (stdout, counters) = mon.finish();
+    eprintln!("emit → monitor took {:.2} s", t0.elapsed().as_secs_f64());
+
+    let (rows, frames) = locate_frames(&wav);
+    let loc_csv = dir.path().join("loc.csv");
+    let st = Command::new(BIN)
+        .arg("locate")
+        .arg(&wav)
+        .arg("--csv")
+        .arg(&loc_csv)
+        .status()
+        .expect("run host-sim locate");
+    assert!(st.success());
+    let loc_text = std::fs::read_to_string(&loc_csv).unwrap();
+    let rec_text = std::fs::read_to_string(&rec).unwrap();
+    let loc_lines: Vec<&str> = loc_text.lines().collect();
+    let rec_lines: Vec<&str> = rec_text.lines().collect();
+    assert!(rows.len() > 100, "{} frames", rows.len());
+    assert_eq!(rec_lines.len(), rows.len() + 1);
+    assert_eq!(loc_lines.len(), rows.len() + 1);
+    assert_eq!(rec_lines[0], CSV_HEADER);
+    for (i, ((row, f), (rl, ll))) in rows
+        .iter()
+        .zip(&frames)
+        .zip(rec_lines[1..].iter().zip(&loc_lines[1..]))
+        .enumerate()
+    {
+        let r: Vec<&str> = rl.split(',').collect();
+        let l: Vec<&str> = ll.split(',').collect();
+        assert_eq!(r.len(), 7, "{rl}");
+        assert_eq!(r[0], row.estimate.frame_index.to_string(), "frame, row {i}");
+        assert_eq!(r[0], l[0]);
+        assert_eq!(r[1], l[1], "t_s, row {i}");
+        let num = |s: &str| s.parse::<f64>().unwrap();
+        assert_eq!(
+            (num(r[2]) * 10.0).round() as i16,
+            f.azimuth_tenths,
+            "row {i}"
+        );
+        assert_eq!((num(r[3]) * 10.0).round() as i16, f.raw_tenths, "row {i}");
+        assert_eq!(
+            (num(r[4]) * 1000.0).round() as u16,
+            f.confidence_permille,
+            "row {i}"
+        );
+        assert!(wrap180(num(r[2]) - f64::from(row.estimate.azimuth_deg)).abs() <= 0.05 + 1e-4);
+        assert!(wrap180(num(r[3]) - f64::from(row.estimate.azimuth_raw_deg)).abs() <= 0.05 + 1e-4);
+        assert!((num(r[4]) - f64::from(row.estimate.confidence)).abs() <= 0.0005 + 1e-6);
+        assert_eq!(r[5], "", "power_db is not transmitted");
+        assert_eq!(r[6], l[6], "flags, row {i}");
+    }
+    // The plain output carries every field, ovr/drop included.
+    let plain: Vec<&str> = stdout.lines().collect();
+    let want: Vec<String> = frames.iter().map(plain_line).collect();
+    assert_eq!(plain, want);
+    assert_eq!(counters["frames"], frames.len() as u64);
+    for k in ["corrupt_lines", "lost_frames", "garbage_bytes", "reopens"] {
+        assert_eq!(counters[k], 0, "{k}");
+    }
+    // The record reads back as an estimate CSV (what eval/score use).
+    let back = locate::read_csv(&rec).expect("read record");
+    assert_eq!(back.len(), frames.len());
+    // `host-sim score` of the record matches that of locate's CSV to the wire's resolution.
+    let truth = wav.with_extension("pos.csv");
+    let score = |csv: &Path| {
+        host_sim::score::report(&host_sim::score::ScoreArgs {
+            estimates: csv.to_path_buf(),
+            truth: truth.clone(),
+            from: 0.0,
+            to: None,
+            json: false,
+        })
+        .expect("score")
+        .overall
+        .settled
+    };
+    let (m_rec, m_loc) = (score(&rec), score(&loc_csv));
+    assert_eq!(m_rec.frames, m_loc.frames);
+    assert!(
+        (m_rec.mae - m_loc.mae).abs() <= 0.05,
+        "{m_rec:?} vs {m_loc:?}"
+    );
+    eprintln!(
+        "round trip: {} frames identical; score MAE {:.3}° (record) vs {:.3}° (locate)",
+        frames.len(),
+        m_rec.mae,
+        m_loc.mae
+    );
+}
+
+/// xorshift64*: a small seeded generator, so the corruption is reproducible.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+}
+
+/// Expected monitor counters for a byte stream, from the framing rule stated in `cma_core::wire`
+/// (independent of `LineAssembler`): a candidate line runs from `$` to the next `\n` (one `\r`
+/// before it removed); a `$` before the `\n` abandons the partial line; a candidate longer than
+/// `MAX_LINE` bytes is rejected; bytes outside lines are garbage.
+#[derive(Debug, Default, PartialEq)]
+struct Expected {
+    accepted: Vec<Frame>,
+    corrupt_lines: u64,
+    garbage_bytes: u64,
+}
+
+fn reference_model(stream: &[u8]) -> Expected {
+    let mut e = Expected::default();
+    let mut cur: Option<Vec<u8>> = None;
+    for &b in stream {
+        match (b, cur.as_mut()) {
+            (b'$', partial) => {
+                if partial.is_some() {
+                    e.corrupt_lines += 1;
+                }
+                cur = Some(vec![b'$']);
+            }
+            (b'\n', Some(_)) => {
+                let mut l = cur.take().unwrap();
+                if l.last() == Some(&b'\r') {
+                    l.pop();
+                }
+                match (l.len() <= MAX_LINE).then(|| wire::decode(&l)) {
+                    Some(Ok(f)) => e.accepted.push(f),
+                    _ => e.corrupt_lines += 1,
+                }
+            }
+            (_, Some(l)) => l.push(b),
+            (_, None) => e.garbage_bytes += 1,
+        }
+    }
+    e
+}
+
+/// 1 % of the bytes of an emitted stream corrupted (half replaced by another random byte, half
+/// dropped), written into one end of the pty pair in random-sized chunks: every intact line is
+/// decoded, no damaged line yields a frame other than the one sent, and the monitor's counters equal
+/// the reference model's exactly (frames, corrupt lines, lost frames = seq gaps between accepted
+/// frames, gap events, garbage bytes, bytes).
+#[test]
+fn corrupted_stream_counters_are_exact() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let wav = scene(dir.path(), 8.0);
+    let (_, frames) = locate_frames(&wav);
+
+    let mut rng = Rng(0x5EED_CA5C_ADE5_u64);
+    let mut stream = Vec::new();
+    let mut intact = Vec::new();
+    let (mut replaced, mut dropped) = (0u64, 0u64);
+    for f in &frames {
+        let mut buf = [0u8; MAX_LINE];
+        let n = wire::encode(f, &mut buf);
+        let mut damaged = false;
+        for &b in &buf[..n] {
+            if rng.below(100) == 0 {
+                damaged = true;
+                if rng.below(2) == 0 {
+                    dropped += 1;
+                    continue;
+                }
+                replaced += 1;
+                stream.push(b ^ (1 + rng.below(255)) as u8);
+            } else {
+                stream.push(b);
+            }
+        }
+        intact.push(!damaged);
+    }
+    stream.push(b'\n'); // closes a line left open by a lost final `\n`
+    let expected = reference_model(&stream);
+
+    let pty = PtyPair::start(dir.path());
+    let mon = MonitorProc::start(&pty.b, &["--exit-after-idle", "1.5"]);
+    {
+        let mut port = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&pty.a)
+            .expect("open ttyA");
+        let mut rest = &stream[..];
+        while !rest.is_empty() {
+            let n = (1 + rng.below(200) as usize).min(rest.len());
+            port.write_all(&rest[..n]).expect("write ttyA");
+            rest = &rest[n..];
+        }
+        port.flush().unwrap();
+        // Keep ttyA open until the monitor has read everything and gone idle.
+        let (stdout, counters) = mon.finish();
+
+        let accepted: Vec<&str> = stdout.lines().collect();
+        let seqs: Vec<u32> = accepted
+            .iter()
+            .map(|l| {
+                l.strip_prefix("seq=")
+                    .and_then(|r| r.split(' ').next())
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or_else(|| panic!("bad plain line {l}"))
+            })
+            .collect();
+        // No damaged line became another frame: each accepted line is exactly the frame sent.
+        for (l, &s) in accepted.iter().zip(&seqs) {
+            assert_eq!(*l, plain_line(&frames[s as usize]));
+        }
+        // Every intact line was decoded (damage confined to \r\n may still decode: same frame).
+        let got: BTreeSet<u32> = seqs.iter().copied().collect();
+        assert_eq!(got.len(), seqs.len(), "a frame was accepted twice");
+        let n_intact = intact.iter().filter(|&&x| x).count();
+        for (i, ok) in intact.iter().enumerate() {
+            if *ok {
+                assert!(got.contains(&(i as u32)), "intact frame {i} not decoded");
+            }
+        }
+        assert_eq!(
+            expected.accepted.iter().map(|f| f.seq).collect::<Vec<_>>(),
+            seqs
+        );
+        let (first, last) = (seqs[0], *seqs.last().unwrap());
+        let lost = u64::from(last - first + 1) - seqs.len() as u64;
+        let gap_events = seqs.windows(2).filter(|w| w[1] - w[0] > 1).count() as u64;
+        eprintln!(
+            "corruption test: {} frames sent, {} bytes, {replaced} bytes replaced, {dropped} \
+             dropped; {n_intact} lines intact, {} accepted; monitor: {counters:?}",
+            frames.len(),
+            stream.len(),
+            seqs.len()
+        );
+        assert_eq!(counters["frames"], seqs.len() as u64);
+        assert_eq!(counters["lost_frames"], lost);
+        assert_eq!(counters["gap_events"], gap_events);
+        assert_eq!(counters["corrupt_lines"], expected.corrupt_lines);
+        assert_eq!(counters["garbage_bytes"], expected.garbage_bytes);
+        assert_eq!(counters["bytes"], stream.len() as u64);
+        assert_eq!(counters["duplicates"], 0);
+        assert_eq!(counters["restarts"], 0);
+        assert!(
+            replaced + dropped > 50,
+            "too little corruption to mean anything"
+        );
+        assert!(lost > 0 && expected.corrupt_lines > 0);
+    }
+}
+
+/// Unplug (socat killed) and replug (new socat on the same paths): the monitor reopens the port and
+/// keeps counting; the second session's seq restart is counted as a restart, not as lost frames.
+#[test]
+fn monitor_survives_unplug_and_replug() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let wav = scene(dir.path(), 2.0);
+    let (_, frames) = locate_frames(&wav);
+    let emit = |port: &Path| {
+        let st = Command::new(BIN)
+            .arg("emit")
+            .arg(&wav)
+            .arg("--port")
+            .arg(port)
+            .status()
+            .expect("run host-sim emit");
+        assert!(st.success());
+    };
+    let pty = PtyPair::start(dir.path());
+    let mut mon = MonitorProc::start(&pty.b, &["--exit-after-idle", "3"]);
+    emit(&pty.a);
+    std::thread::sleep(Duration::from_millis(300));
+    drop(pty);
+    mon.wait_for_stderr("lost", Duration::from_secs(5));
+    let pty = PtyPair::start(dir.path());
+    mon.wait_for_stderr("reopened", Duration::from_secs(5));
+    emit(&pty.a);
+    let (stdout, counters) = mon.finish();
+    assert_eq!(stdout.lines().count(), 2 * frames.len());
+    assert_eq!(counters["frames"], 2 * frames.len() as u64);
+    assert_eq!(counters["reopens"], 1);
+    assert_eq!(counters["restarts"], 1);
+    assert_eq!(counters["lost_frames"], 0);
+    assert_eq!(counters["corrupt_lines"], 0);
+}
+
+/// Clear errors, no panics: missing port, bad baud, unreadable WAV.
+#[test]
+fn clear_errors_for_bad_ports_bauds_and_wavs() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = |args: &[&str]| {
+        let out = Command::new(BIN).args(args).output().expect("run host-sim");
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(!err.contains("panicked"), "{err}");
+        err
+    };
+    let err = run(&["monitor", "--port", "/dev/does-not-exist"]);
+    assert!(
+        err.contains("/dev/does-not-exist: cannot open serial port"),
+        "{err}"
+    );
+    let err = run(&["monitor", "--port", "/dev/null", "--baud", "0"]);
+    assert!(err.contains("--baud"), "{err}");
+    let err = run(&["monitor", "--port", "/dev/null", "--baud", "fast"]);
+    assert!(err.contains("--baud"), "{err}");
+    let bogus = dir.path().join("bogus.wav");
+    std::fs::write(&bogus, b"not a wav").unwrap();
+    let err = run(&[
+        "emit",
+        bogus.to_str().unwrap(),
+        "--port",
+        "/dev/does-not-exist",
+    ]);
+    assert!(err.contains("not a valid WAV file"), "{err}");
+    let wav = scene(dir.path(), 0.5);
+    let err = run(&[
+        "emit",
+        wav.to_str().unwrap(),
+        "--port",
+        "/dev/does-not-exist",
+    ]);
+    assert!(err.contains("cannot open serial port"), "{err}");
+}
