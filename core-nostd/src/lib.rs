@@ -39,6 +39,7 @@ pub mod combination;
 pub mod config;
 pub mod decimator;
 pub mod direct_sound;
+pub mod distance;
 pub mod error;
 pub mod estimate;
 pub mod fdiv;

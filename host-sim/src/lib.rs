@@ -4,17 +4,22 @@
 //! desk needs: evaluation against ground truth with plots, and a scene simulator for tests.
 //! The binary `host-sim` is a thin wrapper around [`run`].
 
+pub mod beam;
 pub mod config_args;
+pub mod distance_eval;
 pub mod error;
 pub mod eval;
 pub mod ground_truth;
 pub mod locate;
 pub mod manifest;
 pub mod metrics;
+pub mod options_eval;
 pub mod plots;
 pub mod scene;
 pub mod signal;
 pub mod wav_io;
+
+pub mod cmds6;
 
 use clap::{Parser, Subcommand};
 use config_args::ConfigArgs;
@@ -45,6 +50,14 @@ pub enum Command {
     Eval(EvalArgs),
     /// Synthesise a CMA1 scene (WAV + .pos.csv) from a talker, a track, diffuse noise and a room.
     Scene(SceneArgs),
+    /// Self-steered beamformer: mono beam (and reverse beam) of a 4-channel WAV.
+    Beam(cmds6::BeamArgs),
+    /// Measure the beamformer's SNR gain and front/back ratio on simulated scenes.
+    BeamReport(cmds6::BeamReportArgs),
+    /// Evaluate every thesis option against the default on an evaluation folder (Markdown table).
+    OptionsEval(cmds6::OptionsEvalArgs),
+    /// Measure the proximity-effect distance estimate on simulated near-field scenes.
+    DistanceReport(cmds6::DistanceReportArgs),
 }
 
 /// `host-sim locate`.
@@ -170,6 +183,10 @@ where
         Command::Locate(a) => cmd_locate(&a),
         Command::Eval(a) => cmd_eval(&a),
         Command::Scene(a) => cmd_scene(&a),
+        Command::Beam(a) => cmds6::beam(&a),
+        Command::BeamReport(a) => cmds6::beam_report(&a),
+        Command::OptionsEval(a) => cmds6::options_eval(&a),
+        Command::DistanceReport(a) => cmds6::distance_report(&a),
     }
 }
 
