@@ -249,12 +249,22 @@ mod tests {
         for (k, r) in rows.iter_mut().enumerate() {
             *r = table.freq_index(k as f32 * 10.0) as u16;
         }
-        for rule in [Combination::PeakCircularMean, Combination::PeakCircularMedian] {
+        for rule in [
+            Combination::PeakCircularMean,
+            Combination::PeakCircularMedian,
+        ] {
             let a = per_peak_estimate(rule, &builder, &table, &spectra, &bins, &rows).unwrap();
             assert!((a - 65.0).abs() < 1.5, "{rule:?}: {a}");
         }
         assert_eq!(
-            per_peak_estimate(Combination::MeanCurve, &builder, &table, &spectra, &bins, &rows),
+            per_peak_estimate(
+                Combination::MeanCurve,
+                &builder,
+                &table,
+                &spectra,
+                &bins,
+                &rows
+            ),
             None
         );
         let (m, s) = fdiv_bin_spread(&spectra, 10, 99);

@@ -90,7 +90,10 @@ mod tests {
         // high kr → the plain cardioid features
         let f = proximity_features(0.0, 2.0, 8000.0);
         assert!((f[0] - 1.0).abs() < 1e-3 && (f[1] - 0.25).abs() < 1e-2);
-        assert_eq!(proximity_features(30.0, 0.0, 100.0), proximity_features(30.0, 1.0, 0.0));
+        assert_eq!(
+            proximity_features(30.0, 0.0, 100.0),
+            proximity_features(30.0, 1.0, 0.0)
+        );
         // kr = 1: the rear cardioid of a source at 0° is boosted: |½ − ¼(1 − j)| = |¼ + j¼|
         let f_kr1 = SPEED_OF_SOUND / (2.0 * core::f32::consts::PI * 0.5);
         let y = proximity_features(0.0, 0.5, f_kr1);
@@ -105,7 +108,12 @@ mod tests {
                 (f, proximity_features(70.0, *r, f))
             });
             let mut s = [0.0f32; 3];
-            assert!(accumulate_scores(70.0, &peaks, &REFERENCE_DISTANCES_M, &mut s));
+            assert!(accumulate_scores(
+                70.0,
+                &peaks,
+                &REFERENCE_DISTANCES_M,
+                &mut s
+            ));
             assert_eq!(best_distance(&s), Some(i));
         }
         let mut s = [0.0f32; 3];

@@ -37,9 +37,13 @@ pub struct QualityMeasures {
 pub struct FrameQuality {
     /// Selected measures.
     pub measures: QualityMeasures,
-    /// Scale P_max of the frame power (full scale ±1 → a sine at full scale has P = 0.5).
+    /// Scale P_max of the frame power (full scale ±1 → a sine at full scale has P = 0.5). Default
+    /// 0.025 (−16 dB): the largest frame power measured on `shared/data/eval` scenes (peak −3 dBFS),
+    /// following eq. 5.33.
     pub power_max: f32,
-    /// Scale of the peak-frequency power, in units of |X|² of the unnormalised 512-point FFT.
+    /// Scale of the peak-frequency power, in units of |X|² of the unnormalised, Hamming-windowed
+    /// 512-point FFT. Default 5: estimated from P_max by Parseval (N²·P·0.2 one-sided energy, about
+    /// half of it in 10 peaks, / N_p²), not fitted.
     pub peak_power_max: f32,
     /// ZCR threshold TH, crossings per second (thesis: 1500).
     pub zcr_threshold_hz: f32,
@@ -56,8 +60,8 @@ impl FrameQuality {
             peak_power: false,
             zcr: false,
         },
-        power_max: 0.01,
-        peak_power_max: 100.0,
+        power_max: 0.025,
+        peak_power_max: 5.0,
         zcr_threshold_hz: 1500.0,
         binary_threshold: 0.0,
     };
@@ -250,6 +254,10 @@ mod tests {
             );
         }
         // variance × power: 0.01/0.02 · (0.01/0.01) = 0.5
+        let q = FrameQuality {
+            power_max: 0.01,
+            ..q
+        };
         let both = FrameQuality {
             measures: QualityMeasures {
                 frame_power: true,

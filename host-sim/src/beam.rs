@@ -139,15 +139,32 @@ pub struct BeamRow {
 }
 
 /// Scenes of the report: (label, talker WAV, azimuth °, room response, near-field distance).
-fn report_scenes(data: &Path) -> Vec<(String, std::path::PathBuf, f64, Option<std::path::PathBuf>)> {
+fn report_scenes(
+    data: &Path,
+) -> Vec<(String, std::path::PathBuf, f64, Option<std::path::PathBuf>)> {
     let speech = data.join("speech/cmu_arctic_us_aew_a0001.wav");
     let speech_f = data.join("speech/cmu_arctic_us_axb_a0004.wav");
     let rir = data.join("rir/marco_p90deg_3m_FOA_ACN_SN3D.wav");
     vec![
         ("anechoic 30° male".into(), speech.clone(), 30.0, None),
-        ("anechoic −135° female".into(), speech_f.clone(), -135.0, None),
-        ("room (3D-MARCo RIR) 100° male".into(), speech, 100.0, Some(rir.clone())),
-        ("room (3D-MARCo RIR) −40° female".into(), speech_f, -40.0, Some(rir)),
+        (
+            "anechoic −135° female".into(),
+            speech_f.clone(),
+            -135.0,
+            None,
+        ),
+        (
+            "room (3D-MARCo RIR) 100° male".into(),
+            speech,
+            100.0,
+            Some(rir.clone()),
+        ),
+        (
+            "room (3D-MARCo RIR) −40° female".into(),
+            speech_f,
+            -40.0,
+            Some(rir),
+        ),
     ]
 }
 

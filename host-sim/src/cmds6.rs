@@ -149,11 +149,7 @@ pub(crate) fn options_eval(a: &OptionsEvalArgs) -> Result<()> {
         .split_whitespace()
         .map(String::from)
         .collect();
-    print!(
-        "{}",
-        crate::options_eval::options_table(&a.dir, &base, threads)?
-    );
-    Ok(())
+    crate::options_eval::options_table(&a.dir, &base, threads, std::io::stdout().lock())
 }
 
 pub(crate) fn distance_report(a: &DistanceReportArgs) -> Result<()> {

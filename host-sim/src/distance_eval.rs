@@ -85,7 +85,11 @@ pub fn analyse(
                 let m0 = p0[k].sqrt();
                 (
                     k as f32 * df,
-                    [spec[1][k].norm() / m0, spec[2][k].norm() / m0, spec[3][k].norm() / m0],
+                    [
+                        spec[1][k].norm() / m0,
+                        spec[2][k].norm() / m0,
+                        spec[3][k].norm() / m0,
+                    ],
                 )
             })
             .collect();

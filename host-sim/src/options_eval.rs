@@ -136,19 +136,38 @@ pub const VARIANTS: &[(&str, &str)] = &[
     ("default", ""),
     ("no reliability (QMoff)", "--no-reliability"),
     ("quality power", "--quality power"),
+    (
+        "quality power, P_max ×0.25",
+        "--quality power --power-max 0.00625",
+    ),
     ("quality peak-power", "--quality peak-power"),
+    (
+        "quality peak-power, scale ×0.1",
+        "--quality peak-power --peak-power-max 0.5",
+    ),
     ("quality zcr", "--quality zcr"),
     ("variance × power", "--quality variance,power"),
     ("variance × peak-power", "--quality variance,peak-power"),
     ("variance × zcr", "--quality variance,zcr"),
-    ("binary b_TH 0.5", "--binary-threshold 0.5"),
+    ("binary b_TH 0.02", "--binary-threshold 0.02"),
+    ("binary b_TH 0.05", "--binary-threshold 0.05"),
+    ("binary b_TH 0.1", "--binary-threshold 0.1"),
     ("binary b_TH 0.2", "--binary-threshold 0.2"),
     ("Cartesian filter (5.30)", "--smoothing cartesian"),
     ("rule 2 circular mean", "--combination peak-mean"),
     ("rule 2 circular median", "--combination peak-median"),
     ("FDIV", "--method fdiv"),
     ("FDIV + circ. std 40°", "--method fdiv --fdiv-std 40"),
-    ("FDIV + circ. std 30° binary", "--method fdiv --fdiv-std 30 --fdiv-std-binary"),
+    ("FDIV + circ. std 90°", "--method fdiv --fdiv-std 90"),
+    ("FDIV + circ. std 120°", "--method fdiv --fdiv-std 120"),
+    (
+        "FDIV + circ. std 30° binary",
+        "--method fdiv --fdiv-std 30 --fdiv-std-binary",
+    ),
+    (
+        "FDIV + circ. std 70° binary",
+        "--method fdiv --fdiv-std 70 --fdiv-std-binary",
+    ),
 ];
 
 /// Parses `extra` flags on top of `base` (flags as on the `eval` command line) into a configuration.
@@ -164,19 +183,25 @@ pub fn variant_config(base: &[String], extra: &str) -> Result<(LocatorConfig, u3
     }
 }
 
-/// Runs every variant of [`VARIANTS`] on `dir` and returns the Markdown table.
-pub fn options_table(dir: &Path, base: &[String], threads: usize) -> Result<String> {
-    let mut out = String::from(
+/// Runs every variant of [`VARIANTS`] on `dir` and writes the Markdown table to `sink`, a row at a
+/// time.
+pub fn options_table(
+    dir: &Path,
+    base: &[String],
+    threads: usize,
+    mut sink: impl std::io::Write,
+) -> Result<()> {
+    let io = |e: std::io::Error| SimError::io("<output>", e);
+    write!(sink, "{}", String::from(
         "| variant | flags | anechoic ACC5 / ACC10 / MAE | room ACC5 / ACC10 / MAE | jump ACC10 / settle (mean s) | moving ACC10 / MAE | all ACC5 / ACC10 / MAE |\n|---|---|---|---|---|---|---|\n",
-    );
+    )).map_err(io)?;
     for (label, extra) in VARIANTS {
         let (config, grid) = variant_config(base, extra)?;
         let table = match grid {
             15 => cma_core::ReferenceTable::ideal_15deg(),
             _ => cma_core::ReferenceTable::ideal_5deg(),
         };
-        let (report, _) =
-            eval::evaluate(dir, config, table, InputLayout::Cma1, threads, &|_| {})?;
+        let (report, _) = eval::evaluate(dir, config, table, InputLayout::Cma1, threads, &|_| {})?;
         let cell = |m: &crate::metrics::Metrics| {
             format!("{:.1} / {:.1} / {:.2}", m.acc[4], m.acc[9], m.mae)
         };
@@ -194,14 +219,17 @@ pub fn options_table(dir: &Path, base: &[String], threads: usize) -> Result<Stri
         let moving = set("moving").map_or("–".into(), |s| {
             format!("{:.1} / {:.2}", s.settled.acc[9], s.settled.mae)
         });
-        out.push_str(&format!(
-            "| {label} | `{extra}` | {} | {} | {jump} | {moving} | {} |\n",
+        writeln!(
+            sink,
+            "| {label} | `{extra}` | {} | {} | {jump} | {moving} | {} |",
             std_cell("anechoic"),
             std_cell("room"),
             cell(&report.overall.settled),
-        ));
+        )
+        .map_err(io)?;
+        sink.flush().map_err(io)?;
     }
-    Ok(out)
+    Ok(())
 }
 
 #[cfg(test)]
