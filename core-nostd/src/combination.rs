@@ -110,7 +110,7 @@ pub fn circular_std_deg(sum_cos: f32, sum_sin: f32, n: usize) -> f32 {
         return f32::INFINITY;
     }
     let r = libm::sqrtf(sum_cos * sum_cos + sum_sin * sum_sin) / n as f32;
-    if !(r > 0.0) {
+    if r.is_nan() || r <= 0.0 {
         return f32::INFINITY;
     }
     libm::sqrtf((-2.0 * libm::logf(r.min(1.0))).max(0.0)).to_degrees()
@@ -172,9 +172,12 @@ pub fn fdiv_bin_spread(
     hi: usize,
 ) -> (f32, f32) {
     let (mut sc, mut ss, mut n) = (0.0f32, 0.0f32, 0usize);
-    for k in lo..=hi.min(NUM_BINS - 1) {
-        let [x, y] = xy_complex([spectra[1][k], spectra[2][k], spectra[3][k]]);
-        let [ix, iy] = intensity(spectra[0][k], x, y);
+    let hi = hi.min(NUM_BINS - 1);
+    let bins = |c: usize| spectra[c].get(lo..=hi).unwrap_or(&[]);
+    let cards = bins(1).iter().zip(bins(2)).zip(bins(3));
+    for (w, ((c1, c2), c3)) in bins(0).iter().zip(cards) {
+        let [x, y] = xy_complex([*c1, *c2, *c3]);
+        let [ix, iy] = intensity(*w, x, y);
         let m = libm::sqrtf(ix * ix + iy * iy);
         if m > 0.0 && m.is_finite() {
             sc += ix / m;
@@ -239,9 +242,9 @@ mod tests {
         for k in 10..100 {
             let s = Complex32::new(1.0 + k as f32 * 0.01, 0.3);
             spectra[0][k] = s;
-            for m in 0..3 {
+            for (m, ch) in spectra.iter_mut().skip(1).enumerate() {
                 let l = (m as f32 * 120.0).to_radians();
-                spectra[m + 1][k] = s * (0.5 + 0.5 * libm::cosf(az - l));
+                ch[k] = s * (0.5 + 0.5 * libm::cosf(az - l));
             }
         }
         let bins: [u16; 5] = [12, 30, 47, 60, 88];

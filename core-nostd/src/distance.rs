@@ -7,7 +7,7 @@
 //! r ≤ 2 m: distance analysis needs long frames and a low band (appendix A `Mfact`).
 //!
 //! With the azimuth already estimated, eq. 5.15 picks the reference distance whose features are most
-//! similar: r̂ = argmax_r mean_p Sim(Y[f_p], 𝒴(φ̂, r, f_p)). The thesis found this weak; see
+//! similar: r̂ = argmax_r mean_p Sim(Y(f_p), 𝒴(φ̂, r, f_p)). The thesis found this weak; see
 //! `docs/options.md` for what it does on simulated scenes.
 
 use crate::reference_table::Feature;
@@ -46,7 +46,7 @@ pub fn similarity(a: Feature, b: Feature) -> f32 {
     1.0 / (1.0 + libm::sqrtf(d))
 }
 
-/// Adds, for every candidate distance i, the mean over `peaks` of Sim(Y[f_p], 𝒴(φ̂, r_i, f_p)) to
+/// Adds, for every candidate distance i, the mean over `peaks` of Sim(Y(f_p), 𝒴(φ̂, r_i, f_p)) to
 /// `scores[i]` (eq. 5.15 before the argmax). `peaks` holds (frequency Hz, observed feature).
 /// Returns `false` (and adds nothing) when there are no peaks.
 pub fn accumulate_scores(

@@ -1,7 +1,7 @@
 //! Alternative frame quality measures of thesis §5.1.6 and how they become the filter coefficient b:
 //!
 //! - frame power P (eq. 5.21) of the omni analysis frame;
-//! - peak-frequency power P_fp = (1/N_p²)·Σ|X₀[f_p]|² (eq. 5.23);
+//! - peak-frequency power P_fp = (1/N_p²)·Σ|X₀(f_p)|² (eq. 5.23);
 //! - zero-crossing-rate voice activity VA = 1 if ZCR ≤ TH else 0 (eq. 5.24–5.25, TH = 1500 Hz);
 //! - the curve variance V_S (eq. 5.26), which the localizer uses by default.
 //!
@@ -69,7 +69,8 @@ impl FrameQuality {
     /// `true` when the configuration is the plain curve-variance weighting (nothing to do here).
     #[must_use]
     pub fn is_default(&self) -> bool {
-        self.measures == Self::DEFAULT.measures && !(self.binary_threshold > 0.0)
+        self.measures == Self::DEFAULT.measures
+            && (self.binary_threshold.is_nan() || self.binary_threshold <= 0.0)
     }
 
     /// `true` when every scale is positive and finite.
@@ -138,7 +139,7 @@ pub fn frame_power(x: &[f32]) -> f32 {
     x.iter().map(|v| v * v).sum::<f32>() / x.len() as f32
 }
 
-/// Peak-frequency power P_fp = (1/N_p²)·Σ_p |X[f_p]|² (eq. 5.23) from a power spectrum; 0 without
+/// Peak-frequency power P_fp = (1/N_p²)·Σ_p |X(f_p)|² (eq. 5.23) from a power spectrum; 0 without
 /// peaks. Bins outside the spectrum are skipped.
 #[must_use]
 pub fn peak_power(power: &[f32], peak_bins: &[u16]) -> f32 {
@@ -153,7 +154,7 @@ pub fn peak_power(power: &[f32], peak_bins: &[u16]) -> f32 {
     s / (n * n) as f32
 }
 
-/// Zero-crossing rate in crossings per second (eq. 5.25): (f_s / 2N)·Σ|sgn x[n] − sgn x[n−1]|,
+/// Zero-crossing rate in crossings per second (eq. 5.25): (f_s / 2N)·Σ|sgn x(n) − sgn x(n−1)|,
 /// with sgn 0 = 0 as in Matlab's `sign`.
 #[must_use]
 pub fn zero_crossing_rate(x: &[f32], rate_hz: f32) -> f32 {
@@ -187,7 +188,7 @@ pub fn voice_activity(zcr_hz: f32, threshold_hz: f32) -> f32 {
 /// `b` unchanged when b_TH ≤ 0 (thresholding off).
 #[must_use]
 pub fn binary(b: f32, threshold: f32) -> f32 {
-    if !(threshold > 0.0) {
+    if threshold.is_nan() || threshold <= 0.0 {
         b
     } else if b >= threshold {
         1.0
