@@ -1,6 +1,9 @@
 //! Configuration of the localizer: plain values, fixed while the localizer runs.
 
+use crate::cartesian_filter::Smoothing;
+use crate::combination::{Combination, FdivSpread};
 use crate::direct_sound::DirectSound;
+use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
 use crate::noisy_reference::NoiseMixing;
 use crate::reliability::Reliability;
@@ -80,6 +83,15 @@ pub struct LocatorConfig {
     pub tdiv_pole: f32,
     /// FDIV smoothing pole a of the per-bin intensity.
     pub fdiv_pole: f32,
+    // Thesis alternatives (issue 6); the defaults leave the method above unchanged.
+    /// Frame quality measures and binary threshold b_TH (§5.1.6, eq. 5.21–5.29, 5.36).
+    pub quality: FrameQuality,
+    /// How the peaks of a frame are combined (§5.1.4: rule 1 mean curve, rule 2 eq. 5.13).
+    pub combination: Combination,
+    /// Where b filters: the similarity curve (eq. 5.31) or the result in Cartesian form (eq. 5.30).
+    pub smoothing: Smoothing,
+    /// FDIV frame reliability from the circular standard deviation over bins (§5.2.2).
+    pub fdiv_spread: FdivSpread,
 }
 
 impl LocatorConfig {
@@ -115,6 +127,10 @@ impl LocatorConfig {
             clipped_confidence: 0.5,
             tdiv_pole: 0.9,
             fdiv_pole: 0.95,
+            quality: FrameQuality::DEFAULT,
+            combination: Combination::MeanCurve,
+            smoothing: Smoothing::Curve,
+            fdiv_spread: FdivSpread::OFF,
         }
     }
 }

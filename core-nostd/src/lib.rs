@@ -22,6 +22,10 @@
 //! handler receives them) and it calls back once per analysis frame with an [`estimate::Estimate`].
 //! The intensity-vector baselines [`tdiv`] and [`fdiv`] sit behind the same interface.
 //!
+//! The thesis's further options: [`beamformer`] (self-steered first-order beam, §3.3),
+//! [`frame_quality`] (§5.1.6 quality measures), [`combination`] (rule 2, eq. 5.13; FDIV spread),
+//! [`cartesian_filter`] (eq. 5.30).
+//!
 //! "Frame" has two meanings in this crate, as in the literature: a *sample frame* is one instant across the
 //! four channels (`[f32; 4]`), an *analysis frame* is a block of [`FRAME_LEN`] samples per channel.
 //! Each name says which one it means.
@@ -29,14 +33,19 @@
 #![deny(clippy::float_cmp_const)]
 
 pub mod angle;
+pub mod beamformer;
 pub mod bformat;
+pub mod cartesian_filter;
+pub mod combination;
 pub mod config;
 pub mod decimator;
 pub mod direct_sound;
+pub mod distance;
 pub mod error;
 pub mod estimate;
 pub mod fdiv;
 pub mod features;
+pub mod frame_quality;
 pub mod framer;
 pub mod grid_tracker;
 pub mod input_guard;

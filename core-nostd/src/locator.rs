@@ -11,6 +11,8 @@
 //! block size the DMA delivers.
 
 use crate::angle::wrap_deg;
+use crate::cartesian_filter::{CartesianFilter, Smoothing};
+use crate::combination::{fdiv_bin_spread, per_peak_estimate, Combination};
 use crate::config::{LocatorConfig, Method, Tracking};
 use crate::decimator::{Decimator, DecimatorState};
 use crate::direct_sound::{DirectSound, OnsetState};
@@ -73,6 +75,8 @@ pub struct Locator<'t> {
     have_history: bool,
     last_azimuth: f32,
     diagnostics: FrameDiagnostics,
+    /// State of the eq. 5.30 result filter (issue 6 options).
+    cartesian: CartesianFilter,
 }
 
 impl<'t> Locator<'t> {
@@ -119,6 +123,11 @@ impl<'t> Locator<'t> {
         }
         if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
             return Err(Error::InvalidConfig("thresholds must be ≥ 0"));
+        }
+        if !c.quality.is_valid() {
+            return Err(Error::InvalidConfig(
+                "quality: scales must be > 0 and finite",
+            ));
         }
         let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
         let picker = PeakPicker {
@@ -170,6 +179,7 @@ impl<'t> Locator<'t> {
             have_history: false,
             last_azimuth: 0.0,
             diagnostics: FrameDiagnostics::default(),
+            cartesian: CartesianFilter::new(),
         })
     }
 
@@ -314,6 +324,12 @@ impl<'t> Locator<'t> {
                 self.picker.hi_bin,
             )
         };
+        // Issue 6: FDIV reliability from the circular std over bins (§5.2.2), off by default.
+        let iv = if self.config.method == Method::Fdiv && self.config.fdiv_spread.enabled() {
+            self.fdiv_spread_frame(iv)
+        } else {
+            iv
+        };
         self.last_azimuth = iv.azimuth_deg;
         iv
     }
@@ -322,7 +338,6 @@ impl<'t> Locator<'t> {
     fn similarity_frame(&mut self, gate: f32, flags: &mut Flags) -> (f32, f32, f32) {
         let q = self.table.num_azimuths();
         let fs = self.decimator.output_rate() as f32;
-        let _ = fs;
         for ch in 0..CHANNELS {
             windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
         }
@@ -382,6 +397,18 @@ impl<'t> Locator<'t> {
             }
             variance = curve_variance(curve);
             b *= self.config.reliability.coefficient(variance);
+            // Issue 6: alternative frame quality measures / binary b (frame_quality.rs).
+            if !self.config.quality.is_default() {
+                b = gate
+                    * self.config.quality.coefficient(
+                        &self.config.reliability,
+                        variance,
+                        &self.frame[0],
+                        fs,
+                        &self.omni_power,
+                        self.peaks.bins(),
+                    );
+            }
         }
         self.diagnostics = FrameDiagnostics {
             curve_variance: variance,
@@ -419,10 +446,69 @@ impl<'t> Locator<'t> {
             flags.insert(Flags::NO_HISTORY);
             raw.unwrap_or(self.last_azimuth)
         };
+        // Issue 6: combination rule 2 and/or Cartesian result filtering (off by default).
+        let (azimuth, raw) = if self.config.combination != Combination::MeanCurve
+            || self.config.smoothing == Smoothing::Cartesian
+        {
+            self.alternative_result(raw, b, azimuth, flags)
+        } else {
+            (azimuth, raw)
+        };
         if let Tracking::Grid(t) = self.config.tracking {
             t.observe_estimate(&mut self.tracker, azimuth);
         }
         self.last_azimuth = azimuth;
         (azimuth, raw.unwrap_or(azimuth), b)
+    }
+
+    // ---- Issue 6 options (combination.rs, cartesian_filter.rs); not reached with the defaults ----
+
+    /// Rule 2 (eq. 5.13) replaces the frame's raw azimuth; the eq. 5.30 filter (the only one that
+    /// applies to a rule-2 estimate) replaces the curve filter's azimuth.
+    fn alternative_result(
+        &mut self,
+        raw: Option<f32>,
+        b: f32,
+        curve_azimuth: f32,
+        flags: &mut Flags,
+    ) -> (f32, Option<f32>) {
+        let raw = if self.config.combination == Combination::MeanCurve {
+            raw
+        } else if raw.is_some() {
+            per_peak_estimate(
+                self.config.combination,
+                &self.curves,
+                &self.table,
+                &self.spectra,
+                self.peaks.bins(),
+                &self.bin_rows,
+            )
+        } else {
+            None
+        };
+        let b = if raw.is_some() { b } else { 0.0 };
+        match self.cartesian.update(b, raw.unwrap_or(0.0)) {
+            Some(a) => {
+                flags.0 &= !Flags::NO_HISTORY.0;
+                (a, raw)
+            }
+            None => {
+                flags.insert(Flags::NO_HISTORY);
+                (raw.unwrap_or(curve_azimuth), raw)
+            }
+        }
+    }
+
+    /// FDIV with the circular-std quality measure: the frame's per-bin circular mean, filtered in
+    /// Cartesian form (eq. 5.30) with b from the spread.
+    fn fdiv_spread_frame(&mut self, _smoothed: IvEstimate) -> IvEstimate {
+        let (mean, std) = fdiv_bin_spread(&self.spectra, self.picker.lo_bin, self.picker.hi_bin);
+        let b = self.config.fdiv_spread.coefficient(std);
+        let az = self.cartesian.update(b, mean).unwrap_or(mean);
+        IvEstimate {
+            azimuth_deg: az,
+            azimuth_raw_deg: mean,
+            confidence: b,
+        }
     }
 }

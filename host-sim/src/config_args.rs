@@ -124,6 +124,9 @@ pub struct ConfigArgs {
     /// TDIV smoothing pole.
     #[arg(long)]
     pub tdiv_pole: Option<f32>,
+    /// Thesis alternatives (issue 6, see `docs/options.md`).
+    #[command(flatten)]
+    pub options: crate::options_eval::OptionArgs,
 }
 
 impl ConfigArgs {
@@ -212,6 +215,7 @@ impl ConfigArgs {
         if let Some(v) = self.tdiv_pole {
             c.tdiv_pole = v;
         }
+        self.options.apply(&mut c)?;
         Ok(c)
     }
 

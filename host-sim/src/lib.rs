@@ -4,7 +4,9 @@
 //! desk needs: evaluation against ground truth with plots, and a scene simulator for tests.
 //! The binary `host-sim` is a thin wrapper around [`run`].
 
+pub mod beam;
 pub mod config_args;
+pub mod distance_eval;
 pub mod emit;
 pub mod error;
 pub mod eval;
@@ -13,12 +15,15 @@ pub mod locate;
 pub mod manifest;
 pub mod metrics;
 pub mod monitor;
+pub mod options_eval;
 pub mod plots;
 pub mod scene;
 pub mod score;
 pub mod serial_link;
 pub mod signal;
 pub mod wav_io;
+
+pub mod thesis_option_commands;
 
 use clap::{Parser, Subcommand};
 use config_args::ConfigArgs;
@@ -55,6 +60,14 @@ pub enum Command {
     Emit(emit::EmitArgs),
     /// Score an estimate CSV (e.g. a `monitor --record`) against a truth .pos.csv, like eval.
     Score(score::ScoreArgs),
+    /// Self-steered beamformer: mono beam (and reverse beam) of a 4-channel WAV.
+    Beam(thesis_option_commands::BeamArgs),
+    /// Measure the beamformer's SNR gain and front/back ratio on simulated scenes.
+    BeamReport(thesis_option_commands::BeamReportArgs),
+    /// Evaluate every thesis option against the default on an evaluation folder (Markdown table).
+    OptionsEval(thesis_option_commands::OptionsEvalArgs),
+    /// Measure the proximity-effect distance estimate on simulated near-field scenes.
+    DistanceReport(thesis_option_commands::DistanceReportArgs),
 }
 
 /// `host-sim locate`.
@@ -183,6 +196,10 @@ where
         Command::Monitor(a) => monitor::run(&a),
         Command::Emit(a) => emit::run(&a),
         Command::Score(a) => score::run(&a),
+        Command::Beam(a) => thesis_option_commands::beam(&a),
+        Command::BeamReport(a) => thesis_option_commands::beam_report(&a),
+        Command::OptionsEval(a) => thesis_option_commands::options_eval(&a),
+        Command::DistanceReport(a) => thesis_option_commands::distance_report(&a),
     }
 }
 

@@ -458,3 +458,90 @@ pub fn load_source(
         )),
     }
 }
+
+/// A scene rendered as separate talker and noise sample frames (same scaling, sum = the scene), for
+/// measurements that need both (beamformer SNR gain, `host-sim beam-report`).
+#[derive(Debug, Clone)]
+pub struct SceneParts {
+    /// Talker only (omni, card 0°, 120°, 240°).
+    pub talker: Vec<[f32; 4]>,
+    /// Diffuse noise only (all zero without an SNR).
+    pub noise: Vec<[f32; 4]>,
+    /// Rate, Hz.
+    pub rate: u32,
+    /// Interval where the talker is active, s.
+    pub active_s: (f64, f64),
+}
+
+/// Near-field gradient response (thesis eq. 3.10–3.12): the figure-8 components of a point source at
+/// `distance_m` carry the factor (1 + jkr)/(jkr) = 1 + c/(jωr). The integrator term is realised as a
+/// leaky integrator (corner 10 Hz, far below the analysis band) so that it stays stable.
+#[must_use]
+pub fn proximity_filter(x: &[f64], rate: u32, distance_m: f64) -> Vec<f64> {
+    const C: f64 = 343.0;
+    let fs = rate as f64;
+    let leak = (-2.0 * PI * 10.0 / fs).exp();
+    let g = C / (distance_m * fs);
+    let mut acc = 0.0;
+    x.iter()
+        .map(|v| {
+            acc = leak * acc + g * v;
+            v + acc
+        })
+        .collect()
+}
+
+/// Like [`synthesize`], but returns talker and noise separately; `near_field_m` renders the talker
+/// as a point source at that distance (proximity effect on X and Y, eq. 3.14) instead of a plane wave.
+#[must_use]
+pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> SceneParts {
+    let rate = spec.rate as f64;
+    let lead = (spec.lead_in_s * rate).round() as usize;
+    let tail = spec.room.as_ref().map_or(0, |r| r.w.len());
+    let total = lead + spec.source.len() + tail.min((0.3 * rate) as usize);
+    let [w, mut x, mut y] = render_talker(spec, total, lead);
+    if let Some(r) = near_field_m.filter(|r| *r > 0.0 && r.is_finite()) {
+        x = proximity_filter(&x, spec.rate, r);
+        y = proximity_filter(&y, spec.rate, r);
+    }
+    let active = (lead, lead + spec.source.len());
+    let talker_power = w[active.0..active.1].iter().map(|v| v * v).sum::<f64>()
+        / (active.1 - active.0).max(1) as f64;
+    let to_cma = |w: f64, x: f64, y: f64| {
+        let mut f = [w, 0.0, 0.0, 0.0];
+        for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
+            let a = (*look as f64).to_radians();
+            f[m + 1] = 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
+        }
+        f
+    };
+    let talker: Vec<[f64; 4]> = (0..total).map(|n| to_cma(w[n], x[n], y[n])).collect();
+    let noise: Vec<[f64; 4]> = match spec.snr_db {
+        Some(snr) => {
+            let mut rng = Rng::new(spec.seed);
+            let nw = pink_noise(&mut rng, total);
+            let nx = pink_noise(&mut rng, total);
+            let ny = pink_noise(&mut rng, total);
+            let g = (talker_power * 10f64.powf(-snr / 10.0)).sqrt();
+            let gd = g / 3f64.sqrt();
+            (0..total)
+                .map(|n| to_cma(g * nw[n], gd * nx[n], gd * ny[n]))
+                .collect()
+        }
+        None => vec![[0.0; 4]; total],
+    };
+    let peak = talker
+        .iter()
+        .zip(&noise)
+        .flat_map(|(t, n)| (0..4).map(move |c| (t[c] + n[c]).abs()))
+        .fold(0.0f64, f64::max)
+        .max(1e-12);
+    let gain = 10f64.powf(spec.peak_dbfs / 20.0) / peak;
+    let scale = |v: Vec<[f64; 4]>| v.iter().map(|f| f.map(|s| (s * gain) as f32)).collect();
+    SceneParts {
+        talker: scale(talker),
+        noise: scale(noise),
+        rate: spec.rate,
+        active_s: (active.0 as f64 / rate, active.1 as f64 / rate),
+    }
+}

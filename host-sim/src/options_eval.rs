@@ -1,0 +1,261 @@
+//! The thesis's alternative options on the command line ([`OptionArgs`], flattened into every
+//! configuration) and `host-sim options-eval`: every option against the default on one evaluation
+//! folder, as a Markdown table (`docs/options.md`).
+
+use crate::error::{Result, SimError};
+use crate::eval;
+use crate::wav_io::InputLayout;
+use cma_core::cartesian_filter::Smoothing;
+use cma_core::combination::{Combination, FdivSpread};
+use cma_core::frame_quality::QualityMeasures;
+use cma_core::LocatorConfig;
+use std::path::Path;
+
+/// Peak combination rule on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CombinationArg {
+    /// Rule 1: mean similarity curve, then argmax (eq. 5.11–5.12).
+    MeanCurve,
+    /// Rule 2: per-peak argmax, circular mean (eq. 5.13).
+    PeakMean,
+    /// Rule 2: per-peak argmax, circular median.
+    PeakMedian,
+}
+
+/// Where b filters, on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SmoothingArg {
+    /// The similarity curve (eq. 5.31).
+    Curve,
+    /// The result as a unit vector (eq. 5.30).
+    Cartesian,
+}
+
+/// Flags of the thesis alternatives (issue 6). Unset flags keep the preset's value.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct OptionArgs {
+    /// Frame quality measures multiplied into b (eq. 5.36): comma list of `variance`, `power`,
+    /// `peak-power`, `zcr`.
+    #[arg(long)]
+    pub quality: Option<String>,
+    /// Scale P_max of the frame-power measure (full scale = 1).
+    #[arg(long)]
+    pub power_max: Option<f32>,
+    /// Scale of the peak-frequency-power measure (|X|² of the unnormalised 512-point FFT).
+    #[arg(long)]
+    pub peak_power_max: Option<f32>,
+    /// ZCR voice-activity threshold, crossings per second.
+    #[arg(long)]
+    pub zcr_threshold: Option<f32>,
+    /// Binary threshold b_TH on b (eq. 5.27–5.29; 0 = off).
+    #[arg(long)]
+    pub binary_threshold: Option<f32>,
+    /// Peak combination rule.
+    #[arg(long, value_enum)]
+    pub combination: Option<CombinationArg>,
+    /// Where the reliability coefficient filters.
+    #[arg(long, value_enum)]
+    pub smoothing: Option<SmoothingArg>,
+    /// FDIV: reliability from the circular std over bins, scale s_max in degrees (0 = off).
+    #[arg(long)]
+    pub fdiv_std: Option<f32>,
+    /// FDIV: make the circular-std reliability binary (b = 1 when s ≤ s_max).
+    #[arg(long)]
+    pub fdiv_std_binary: bool,
+}
+
+impl OptionArgs {
+    /// Writes the set flags into `c`.
+    pub fn apply(&self, c: &mut LocatorConfig) -> Result<()> {
+        if let Some(list) = &self.quality {
+            let mut m = QualityMeasures {
+                curve_variance: false,
+                frame_power: false,
+                peak_power: false,
+                zcr: false,
+            };
+            for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+                match item {
+                    "variance" => m.curve_variance = true,
+                    "power" => m.frame_power = true,
+                    "peak-power" => m.peak_power = true,
+                    "zcr" => m.zcr = true,
+                    other => {
+                        return Err(SimError::Usage(format!(
+                            "--quality: expected variance, power, peak-power or zcr, got `{other}`"
+                        )))
+                    }
+                }
+            }
+            c.quality.measures = m;
+        }
+        if let Some(v) = self.power_max {
+            c.quality.power_max = v;
+        }
+        if let Some(v) = self.peak_power_max {
+            c.quality.peak_power_max = v;
+        }
+        if let Some(v) = self.zcr_threshold {
+            c.quality.zcr_threshold_hz = v;
+        }
+        if let Some(v) = self.binary_threshold {
+            c.quality.binary_threshold = v;
+        }
+        if let Some(v) = self.combination {
+            c.combination = match v {
+                CombinationArg::MeanCurve => Combination::MeanCurve,
+                CombinationArg::PeakMean => Combination::PeakCircularMean,
+                CombinationArg::PeakMedian => Combination::PeakCircularMedian,
+            };
+        }
+        if let Some(v) = self.smoothing {
+            c.smoothing = match v {
+                SmoothingArg::Curve => Smoothing::Curve,
+                SmoothingArg::Cartesian => Smoothing::Cartesian,
+            };
+        }
+        if let Some(v) = self.fdiv_std {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(SimError::Usage(format!(
+                    "--fdiv-std: expected degrees ≥ 0, got {v}"
+                )));
+            }
+            c.fdiv_spread = FdivSpread {
+                max_std_deg: v,
+                binary: self.fdiv_std_binary,
+            };
+        } else if self.fdiv_std_binary {
+            c.fdiv_spread.binary = true;
+        }
+        Ok(())
+    }
+}
+
+/// The variants `options-eval` runs: (label, extra flags). The first is the reference.
+pub const VARIANTS: &[(&str, &str)] = &[
+    ("default", ""),
+    ("no reliability (QMoff)", "--no-reliability"),
+    ("quality power", "--quality power"),
+    (
+        "quality power, P_max ×0.25",
+        "--quality power --power-max 0.00625",
+    ),
+    ("quality peak-power", "--quality peak-power"),
+    (
+        "quality peak-power, scale ×0.1",
+        "--quality peak-power --peak-power-max 0.5",
+    ),
+    ("quality zcr", "--quality zcr"),
+    ("variance × power", "--quality variance,power"),
+    ("variance × peak-power", "--quality variance,peak-power"),
+    ("variance × zcr", "--quality variance,zcr"),
+    ("binary b_TH 0.02", "--binary-threshold 0.02"),
+    ("binary b_TH 0.05", "--binary-threshold 0.05"),
+    ("binary b_TH 0.1", "--binary-threshold 0.1"),
+    ("binary b_TH 0.2", "--binary-threshold 0.2"),
+    ("Cartesian filter (5.30)", "--smoothing cartesian"),
+    ("rule 2 circular mean", "--combination peak-mean"),
+    ("rule 2 circular median", "--combination peak-median"),
+    ("FDIV", "--method fdiv"),
+    ("FDIV + circ. std 40°", "--method fdiv --fdiv-std 40"),
+    ("FDIV + circ. std 90°", "--method fdiv --fdiv-std 90"),
+    ("FDIV + circ. std 120°", "--method fdiv --fdiv-std 120"),
+    (
+        "FDIV + circ. std 30° binary",
+        "--method fdiv --fdiv-std 30 --fdiv-std-binary",
+    ),
+    (
+        "FDIV + circ. std 70° binary",
+        "--method fdiv --fdiv-std 70 --fdiv-std-binary",
+    ),
+];
+
+/// Parses `extra` flags on top of `base` (flags as on the `eval` command line) into a configuration.
+pub fn variant_config(base: &[String], extra: &str) -> Result<(LocatorConfig, u32)> {
+    let mut args: Vec<String> = vec!["host-sim".into(), "eval".into(), ".".into()];
+    args.extend(base.iter().cloned());
+    args.extend(extra.split_whitespace().map(String::from));
+    let cli = <crate::Cli as clap::Parser>::try_parse_from(&args)
+        .map_err(|e| SimError::Usage(format!("{extra}: {e}")))?;
+    match cli.command {
+        crate::Command::Eval(a) => Ok((a.config.config()?, a.config.grid)),
+        _ => Err(SimError::Other("variant did not parse as eval".into())),
+    }
+}
+
+/// Runs every variant of [`VARIANTS`] on `dir` and writes the Markdown table to `sink`, a row at a
+/// time.
+pub fn options_table(
+    dir: &Path,
+    base: &[String],
+    threads: usize,
+    mut sink: impl std::io::Write,
+) -> Result<()> {
+    let io = |e: std::io::Error| SimError::io("<output>", e);
+    write!(sink, "{}", String::from(
+        "| variant | flags | anechoic ACC5 / ACC10 / MAE | room ACC5 / ACC10 / MAE | jump ACC10 / settle (mean s) | moving ACC10 / MAE | all ACC5 / ACC10 / MAE |\n|---|---|---|---|---|---|---|\n",
+    )).map_err(io)?;
+    for (label, extra) in VARIANTS {
+        let (config, grid) = variant_config(base, extra)?;
+        let table = match grid {
+            15 => cma_core::ReferenceTable::ideal_15deg(),
+            _ => cma_core::ReferenceTable::ideal_5deg(),
+        };
+        let (report, _) = eval::evaluate(dir, config, table, InputLayout::Cma1, threads, &|_| {})?;
+        let cell = |m: &crate::metrics::Metrics| {
+            format!("{:.1} / {:.1} / {:.2}", m.acc[4], m.acc[9], m.mae)
+        };
+        let set = |name: &str| report.sets.iter().find(|s| s.set == name);
+        let std_cell = |name: &str| set(name).map_or("–".into(), |s| cell(&s.settled));
+        let jump = set("jump").map_or("–".into(), |s| {
+            let settles: Vec<f64> = s.jumps.iter().filter_map(|j| j.settle_s).collect();
+            let mean = if settles.len() == s.jumps.len() && !settles.is_empty() {
+                format!("{:.2}", settles.iter().sum::<f64>() / settles.len() as f64)
+            } else {
+                format!("{}/{} settled", settles.len(), s.jumps.len())
+            };
+            format!("{:.1} / {}", s.settled.acc[9], mean)
+        });
+        let moving = set("moving").map_or("–".into(), |s| {
+            format!("{:.1} / {:.2}", s.settled.acc[9], s.settled.mae)
+        });
+        writeln!(
+            sink,
+            "| {label} | `{extra}` | {} | {} | {jump} | {moving} | {} |",
+            std_cell("anechoic"),
+            std_cell("room"),
+            cell(&report.overall.settled),
+        )
+        .map_err(io)?;
+        sink.flush().map_err(io)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_reach_the_config_and_defaults_are_untouched() {
+        let (d, _) = variant_config(&[], "").unwrap();
+        assert_eq!(d, LocatorConfig::default());
+        let (c, _) = variant_config(
+            &[],
+            "--quality variance,zcr --binary-threshold 0.4 --combination peak-median --smoothing cartesian --fdiv-std 30 --fdiv-std-binary --power-max 0.5",
+        )
+        .unwrap();
+        assert!(c.quality.measures.zcr && c.quality.measures.curve_variance);
+        assert!(!c.quality.measures.frame_power);
+        assert_eq!(c.quality.binary_threshold, 0.4);
+        assert_eq!(c.quality.power_max, 0.5);
+        assert_eq!(c.combination, Combination::PeakCircularMedian);
+        assert_eq!(c.smoothing, Smoothing::Cartesian);
+        assert!(c.fdiv_spread.enabled() && c.fdiv_spread.binary);
+        assert!(variant_config(&[], "--quality loudness").is_err());
+        assert!(variant_config(&[], "--fdiv-std -1").is_err());
+        for (_, extra) in VARIANTS {
+            assert!(variant_config(&[], extra).is_ok(), "{extra}");
+        }
+    }
+}
