@@ -32,6 +32,7 @@ pub mod bformat;
 pub mod config;
 pub mod decimator;
 pub mod direct_sound;
+pub mod embedded_table;
 pub mod error;
 pub mod estimate;
 pub mod fdiv;
@@ -46,6 +47,7 @@ pub mod reference_table;
 pub mod reliability;
 pub mod similarity;
 pub mod spectrum;
+pub mod table_file;
 pub mod tables;
 pub mod tdiv;
 
