@@ -4,6 +4,9 @@
 //! desk needs: evaluation against ground truth with plots, and a scene simulator for tests.
 //! The binary `host-sim` is a thin wrapper around [`run`].
 
+pub mod array_model;
+pub mod calibrate;
+pub mod calibrate_cli;
 pub mod config_args;
 pub mod error;
 pub mod eval;
@@ -14,6 +17,8 @@ pub mod metrics;
 pub mod plots;
 pub mod scene;
 pub mod signal;
+pub mod sweep;
+pub mod table_io;
 pub mod wav_io;
 
 use clap::{Parser, Subcommand};
@@ -45,6 +50,10 @@ pub enum Command {
     Eval(EvalArgs),
     /// Synthesise a CMA1 scene (WAV + .pos.csv) from a talker, a track, diffuse noise and a room.
     Scene(SceneArgs),
+    /// Write the exponential sine sweep (thesis eq. 2.43) to play for a calibration.
+    Sweep(calibrate_cli::SweepArgs),
+    /// Measure a reference table from sweep recordings at known azimuths.
+    Calibrate(calibrate_cli::CalibrateArgs),
 }
 
 /// `host-sim locate`.
@@ -145,6 +154,9 @@ pub struct SceneArgs {
     /// Set name for --manifest.
     #[arg(long, default_value = "scenes")]
     pub set: String,
+    /// Capsule imperfections of the simulated array.
+    #[command(flatten)]
+    pub array: array_model::ArrayArgs,
 }
 
 /// Parses `args` (including the program name) and runs the command.
@@ -170,6 +182,8 @@ where
         Command::Locate(a) => cmd_locate(&a),
         Command::Eval(a) => cmd_eval(&a),
         Command::Scene(a) => cmd_scene(&a),
+        Command::Sweep(a) => calibrate_cli::cmd_sweep(&a),
+        Command::Calibrate(a) => calibrate_cli::cmd_calibrate(&a),
     }
 }
 
@@ -186,7 +200,8 @@ fn progress_bar(total: u64) -> indicatif::ProgressBar {
 
 fn cmd_locate(a: &LocateArgs) -> Result<()> {
     let config = a.config.config()?;
-    let table = a.config.ideal_table()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
     let pb = progress_bar(rec.frames.len() as u64);
     let rows = locate::locate(&rec, config, table, |n| pb.inc(n as u64))?;
@@ -203,7 +218,8 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
 
 fn cmd_eval(a: &EvalArgs) -> Result<()> {
     let config = a.config.config()?;
-    let table = a.config.ideal_table()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -264,6 +280,7 @@ fn cmd_scene(a: &SceneArgs) -> Result<()> {
         room,
         peak_dbfs: a.peak_dbfs,
         seed: a.seed,
+        array: a.array.model()?,
     };
     let s = scene::synthesize(&spec);
     scene::write_scene(

@@ -7,11 +7,11 @@
 //! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E[X²] = E[Y²] = E[Z²] = E[W²]/3. The capsules then
 //! see omni = W and cardioid_m = ½W + ½(X cos φ_m + Y sin φ_m), so |card|²/|omni|² = ⅓ on average.
 
+use crate::array_model::ArrayModel;
 use crate::error::{Result, SimError};
 use crate::ground_truth::{wrap180, Track};
 use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
 use crate::wav_io::{read_interleaved, read_mono, write_atomically, write_wav, OutFormat};
-use cma_core::CARDIOID_LOOK_DEG;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -172,6 +172,8 @@ pub struct SceneSpec {
     pub peak_dbfs: f64,
     /// Seed of the noise.
     pub seed: u64,
+    /// Capsule model (ideal by default); applied to talker and noise alike.
+    pub array: ArrayModel,
 }
 
 /// A synthesised scene: CMA1 sample frames and truth.
@@ -270,16 +272,7 @@ pub fn synthesize(spec: &SceneSpec) -> Scene {
     let talker_power = w[active.0..active.1].iter().map(|v| v * v).sum::<f64>()
         / (active.1 - active.0).max(1) as f64;
 
-    let mut ch: Vec<[f64; 4]> = (0..total)
-        .map(|n| {
-            let mut f = [w[n], 0.0, 0.0, 0.0];
-            for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
-                let a = (*look as f64).to_radians();
-                f[m + 1] = 0.5 * w[n] + 0.5 * (x[n] * a.cos() + y[n] * a.sin());
-            }
-            f
-        })
-        .collect();
+    let mut ch: Vec<[f64; 4]> = spec.array.render(&w, &x, &y, spec.rate);
     if let Some(snr) = spec.snr_db {
         let mut rng = Rng::new(spec.seed);
         let nw = pink_noise(&mut rng, total);
@@ -287,12 +280,16 @@ pub fn synthesize(spec: &SceneSpec) -> Scene {
         let ny = pink_noise(&mut rng, total);
         let g = (talker_power * 10f64.powf(-snr / 10.0)).sqrt();
         let gd = g / 3f64.sqrt();
-        for (n, f) in ch.iter_mut().enumerate() {
-            let (w, x, y) = (g * nw[n], gd * nx[n], gd * ny[n]);
-            f[0] += w;
-            for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
-                let a = (*look as f64).to_radians();
-                f[m + 1] += 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
+        let scaled = |v: &[f64], k: f64| v.iter().map(|s| k * s).collect::<Vec<f64>>();
+        let noise = spec.array.render(
+            &scaled(&nw, g),
+            &scaled(&nx, gd),
+            &scaled(&ny, gd),
+            spec.rate,
+        );
+        for (f, r) in ch.iter_mut().zip(&noise) {
+            for (a, b) in f.iter_mut().zip(r) {
+                *a += b;
             }
         }
     }
