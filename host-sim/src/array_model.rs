@@ -110,10 +110,10 @@ impl ArrayModel {
 #[derive(Debug, Clone, clap::Args)]
 pub struct ArrayArgs {
     /// Cardioid gains in dB, three comma-separated values (e.g. `1,-1,0.5`); default ideal.
-    #[arg(long, allow_hyphen_values = true, value_delimiter = ',', num_args = 3)]
+    #[arg(long, allow_hyphen_values = true, value_delimiter = ',')]
     pub capsule_gain_db: Option<Vec<f64>>,
     /// Cardioid pattern β per capsule, three values (0 omni, 0.5 cardioid, 1 figure-8).
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    #[arg(long, value_delimiter = ',')]
     pub capsule_beta: Option<Vec<f64>>,
     /// Frequency-dependent pattern: β is lowered by this much at low frequencies (negative: raised).
     #[arg(long, allow_hyphen_values = true, default_value_t = 0.0)]

@@ -408,3 +408,323 @@ pub fn max_deviation_from_ideal(t: &OwnedTable) -> f64 {
         })
         .fold(0.0, f64::max)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::array_model::ArrayModel;
+    use crate::ground_truth::wrap180;
+    use crate::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
+    use crate::signal::{convolve, Rng};
+    use crate::wav_io::Recording;
+    use cma_core::{LocatorConfig, ReferenceTable};
+
+    const RATE: u32 = 16_000;
+
+    fn opts() -> CalibrationOptions {
+        CalibrationOptions {
+            sweep: SweepSpec {
+                f1: 50.0,
+                f2: 7_500.0,
+                seconds: 1.0,
+                rate: RATE,
+            },
+            ..CalibrationOptions::default()
+        }
+    }
+
+    /// A synthetic first-order room (W, X, Y) with its direct sound from 0°: reflections from other
+    /// directions at `reflections` (delay s, gain, azimuth °) and an exponentially decaying diffuse tail
+    /// from `tail_from_s` on.
+    fn room(reflections: &[(f64, f64, f64)], tail_from_s: f64) -> [Vec<f64>; 3] {
+        let n = (0.25 * f64::from(RATE)) as usize;
+        let mut h = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        h[0][0] = 1.0;
+        h[1][0] = 1.0;
+        for (d, g, az) in reflections {
+            let i = (d * f64::from(RATE)) as usize;
+            let a = az.to_radians();
+            h[0][i] += g;
+            h[1][i] += g * a.cos();
+            h[2][i] += g * a.sin();
+        }
+        let mut rng = Rng::new(7);
+        let start = (tail_from_s * f64::from(RATE)) as usize;
+        for i in start..n {
+            let env = 0.05 * (-((i - start) as f64) / (0.04 * f64::from(RATE))).exp();
+            h[0][i] += env * rng.gaussian();
+            h[1][i] += env * rng.gaussian() / 2f64.sqrt();
+            h[2][i] += env * rng.gaussian() / 2f64.sqrt();
+        }
+        h
+    }
+
+    /// The sweep recording of `model` with the source at `az` (plane wave, or through `room` rotated),
+    /// after 200 samples of latency and with a 0.3 s tail.
+    fn record(
+        sweep: &[f64],
+        az: f64,
+        model: &ArrayModel,
+        room: Option<&[Vec<f64>; 3]>,
+    ) -> Measurement {
+        let a = az.to_radians();
+        let (c, s) = (a.cos(), a.sin());
+        let lat = 200;
+        let total = lat + sweep.len() + (0.3 * f64::from(RATE)) as usize;
+        let mut b = [vec![0.0; total], vec![0.0; total], vec![0.0; total]];
+        let (hw, hx, hy) = match room {
+            Some(r) => (
+                r[0].clone(),
+                r[1].iter().zip(&r[2]).map(|(x, y)| x * c - y * s).collect(),
+                r[1].iter().zip(&r[2]).map(|(x, y)| x * s + y * c).collect(),
+            ),
+            None => (vec![1.0], vec![c], vec![s]),
+        };
+        for (o, h) in b.iter_mut().zip([hw, hx, hy]) {
+            for (i, v) in convolve(sweep, &h).into_iter().enumerate() {
+                if let Some(d) = o.get_mut(lat + i) {
+                    *d = v * 0.3;
+                }
+            }
+        }
+        let frames = model
+            .render(&b[0], &b[1], &b[2], RATE)
+            .iter()
+            .map(|f| f.map(|v| v as f32))
+            .collect();
+        Measurement {
+            label: format!("sim{az}"),
+            azimuth_deg: az,
+            rate: RATE,
+            frames,
+        }
+    }
+
+    fn record_all(
+        sweep: &[f64],
+        azimuths: impl Iterator<Item = f64>,
+        model: &ArrayModel,
+        room: Option<&[Vec<f64>; 3]>,
+    ) -> Vec<Measurement> {
+        azimuths.map(|az| record(sweep, az, model, room)).collect()
+    }
+
+    fn imperfect() -> ArrayModel {
+        ArrayModel {
+            gains_db: [1.0, -1.0, 0.5],
+            betas: [0.45, 0.55, 0.5],
+            beta_drift: 0.15,
+            drift_corner_hz: 400.0,
+        }
+    }
+
+    #[test]
+    fn calibrating_an_ideal_array_reproduces_the_ideal_table() {
+        let o = opts();
+        let sweep = o.sweep.generate();
+        let recs = record_all(
+            &sweep,
+            (0..72).map(|q| q as f64 * 5.0),
+            &ArrayModel::ideal(),
+            None,
+        );
+        let (t, infos) = calibrate(&recs, &sweep, &o).unwrap();
+        assert_eq!((t.azimuths_deg.len(), t.freqs_hz.len()), (72, 42));
+        let dev = max_deviation_from_ideal(&t);
+        assert!(dev < 0.005, "max deviation {dev}");
+        assert!(infos
+            .iter()
+            .all(|i| (i.delay_s - 200.0 / 16_000.0).abs() < 1e-9));
+        for (m, p) in t.noise_magnitude.iter().zip(&t.noise_power) {
+            assert!(m.iter().all(|v| (v - 0.5).abs() < 0.005), "{m:?}");
+            // 2-D diffuse: √(¼ + ¼·½) = √(3/8).
+            assert!(
+                p.iter().all(|v| (v - 0.375f32.sqrt()).abs() < 0.005),
+                "{p:?}"
+            );
+        }
+        // The first row equals the core's ideal 5° table.
+        let ideal = ReferenceTable::ideal_5deg();
+        assert_eq!(t.azimuths_deg.as_slice(), ideal.azimuths_deg());
+    }
+
+    #[test]
+    fn symmetry_builds_the_circle_from_one_third() {
+        let o = opts();
+        let sweep = o.sweep.generate();
+        let model = ArrayModel {
+            beta_drift: 0.1,
+            ..ArrayModel::ideal()
+        };
+        let full = record_all(&sweep, (0..24).map(|q| q as f64 * 15.0), &model, None);
+        let third = record_all(&sweep, (0..8).map(|q| q as f64 * 15.0), &model, None);
+        let (a, _) = calibrate(&full, &sweep, &o).unwrap();
+        let (b, _) = calibrate(
+            &third,
+            &sweep,
+            &CalibrationOptions {
+                symmetry: true,
+                ..o
+            },
+        )
+        .unwrap();
+        assert_eq!(a.azimuths_deg, b.azimuths_deg);
+        let diff = a
+            .features
+            .iter()
+            .zip(&b.features)
+            .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
+            .fold(0.0f32, f32::max);
+        assert!(diff < 1e-3, "{diff}");
+        let e = calibrate(
+            &full,
+            &sweep,
+            &CalibrationOptions {
+                symmetry: true,
+                ..o
+            },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("[0°, 120°)"), "{e}");
+    }
+
+    #[test]
+    fn the_window_keeps_reflections_out_of_the_features() {
+        let o = opts();
+        let sweep = o.sweep.generate();
+        // Reflections at 15 and 22 ms and a tail from 25 ms: all after the 11.6 ms window.
+        let r = room(&[(0.015, 0.6, 150.0), (0.022, 0.5, -80.0)], 0.025);
+        let recs = record_all(
+            &sweep,
+            (0..24).map(|q| q as f64 * 15.0),
+            &ArrayModel::ideal(),
+            Some(&r),
+        );
+        let (windowed, _) = calibrate(&recs, &sweep, &o).unwrap();
+        let (long, _) =
+            calibrate(&recs, &sweep, &CalibrationOptions { window_s: 0.2, ..o }).unwrap();
+        let (dw, dl) = (
+            max_deviation_from_ideal(&windowed),
+            max_deviation_from_ideal(&long),
+        );
+        assert!(dw < 0.05 && dl > 0.2, "windowed {dw}, 200 ms {dl}");
+        // Smoothing over frequency reduces the ripple of the long window (thesis Fig. 5.3).
+        let (smoothed, _) = calibrate(
+            &recs,
+            &sweep,
+            &CalibrationOptions {
+                window_s: 0.2,
+                smoothing: 0.7,
+                ..o
+            },
+        )
+        .unwrap();
+        assert!(max_deviation_from_ideal(&smoothed) < dl);
+    }
+
+    /// Mean absolute error (°) of the locator over the talker's active part (from 0.5 s on) of a few
+    /// short anechoic scenes of `model` at 10 dB SNR.
+    fn scene_mae(model: &ArrayModel, table: ReferenceTable<'_>) -> f64 {
+        let mut errs = Vec::new();
+        for (i, az) in [-150.0, -95.0, -30.0, 10.0, 65.0, 130.0].iter().enumerate() {
+            let spec = SceneSpec {
+                source: synthetic_speech(RATE, 2.5, i as u64 + 3),
+                rate: RATE,
+                lead_in_s: 0.25,
+                motion: Motion::Steps(vec![(0.0, *az)]),
+                snr_db: Some(10.0),
+                room: None,
+                peak_dbfs: -3.0,
+                seed: i as u64 + 11,
+                array: *model,
+            };
+            let s = synthesize(&spec);
+            let rec = Recording {
+                rate: s.rate,
+                frames: s.frames,
+            };
+            let rows =
+                crate::locate::locate(&rec, LocatorConfig::default(), table, |_| {}).unwrap();
+            for r in rows {
+                if r.t_s > s.active_s.0 + 0.5 && r.t_s < s.active_s.1 {
+                    errs.push(wrap180(f64::from(r.estimate.azimuth_deg) - az).abs());
+                }
+            }
+        }
+        errs.iter().sum::<f64>() / errs.len() as f64
+    }
+
+    #[test]
+    fn measured_table_beats_the_ideal_one_on_an_imperfect_array() {
+        let o = opts();
+        let sweep = o.sweep.generate();
+        let model = imperfect();
+        let recs = record_all(&sweep, (0..72).map(|q| q as f64 * 5.0), &model, None);
+        let (t, _) = calibrate(&recs, &sweep, &o).unwrap();
+        let measured = scene_mae(&model, t.as_table().unwrap());
+        let ideal = scene_mae(&model, ReferenceTable::ideal_5deg());
+        assert!(
+            measured < 0.7 * ideal,
+            "measured {measured:.2}°, ideal {ideal:.2}°"
+        );
+    }
+
+    #[test]
+    fn bad_recordings_give_clear_errors() {
+        let o = opts();
+        let sweep = o.sweep.generate();
+        let good = record(&sweep, 0.0, &ArrayModel::ideal(), None);
+        let others = record_all(
+            &sweep,
+            [90.0, 180.0].into_iter(),
+            &ArrayModel::ideal(),
+            None,
+        );
+        let run = |m: Measurement| {
+            let mut v = others.clone();
+            v.push(m);
+            calibrate(&v, &sweep, &o).unwrap_err().to_string()
+        };
+        let e = run(Measurement {
+            rate: 48_000,
+            ..good.clone()
+        });
+        assert!(
+            e.contains("recorded at 48000 Hz, but the sweep is at 16000 Hz"),
+            "{e}"
+        );
+        let e = run(Measurement {
+            frames: good.frames[..sweep.len() - 1].to_vec(),
+            ..good.clone()
+        });
+        assert!(e.contains("too short"), "{e}");
+        // A recording of another sweep (different band and length).
+        let other = SweepSpec {
+            f1: 100.0,
+            f2: 6000.0,
+            seconds: 1.2,
+            rate: RATE,
+        }
+        .generate();
+        let e = run(record(&other, 0.0, &ArrayModel::ideal(), None));
+        assert!(e.contains("does not match the sweep"), "{e}");
+        let e = run(Measurement {
+            azimuth_deg: 450.0,
+            ..good.clone()
+        });
+        assert!(e.contains("two recordings at azimuth 90"), "{e}");
+        let e = calibrate(&[], &sweep, &o).unwrap_err().to_string();
+        assert!(e.contains("no recordings"), "{e}");
+        let e = calibrate(
+            &others,
+            &sweep,
+            &CalibrationOptions {
+                freq_hi_hz: 9000.0,
+                ..o
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("must lie inside the sweep's band"), "{e}");
+    }
+}
