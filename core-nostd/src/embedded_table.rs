@@ -53,7 +53,10 @@ mod tests {
         if !HAS_MEASURED_TABLE {
             assert_eq!(ReferenceTable::embedded(), ReferenceTable::ideal_5deg());
         } else {
-            assert!(ReferenceTable::embedded().num_freqs() >= 1);
+            // CMA_TABLE=… cargo test -p cma-core --lib embedded
+            let t = ReferenceTable::embedded();
+            assert_ne!(t, ReferenceTable::ideal_5deg());
+            assert_eq!(t.features().len(), t.num_freqs() * t.num_azimuths());
         }
     }
 }
