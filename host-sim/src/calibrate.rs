@@ -326,13 +326,11 @@ fn features_from_spectra(
         }
     }
     if smoothing > 0.0 {
-        for qi in 0..q {
-            for m in 0..CARDIOIDS {
-                let mut v: Vec<f64> = (0..nf).map(|fi| features[fi * q + qi][m]).collect();
-                smooth_zero_phase(&mut v, smoothing);
-                for (fi, x) in v.into_iter().enumerate() {
-                    features[fi * q + qi][m] = x;
-                }
+        for (qi, m) in (0..q).flat_map(|qi| (0..CARDIOIDS).map(move |m| (qi, m))) {
+            let mut v: Vec<f64> = (0..nf).map(|fi| features[fi * q + qi][m]).collect();
+            smooth_zero_phase(&mut v, smoothing);
+            for (fi, x) in v.into_iter().enumerate() {
+                features[fi * q + qi][m] = x;
             }
         }
     }
@@ -450,11 +448,16 @@ mod tests {
         }
         let mut rng = Rng::new(7);
         let start = (tail_from_s * f64::from(RATE)) as usize;
-        for i in start..n {
-            let env = 0.05 * (-((i - start) as f64) / (0.04 * f64::from(RATE))).exp();
-            h[0][i] += env * rng.gaussian();
-            h[1][i] += env * rng.gaussian() / 2f64.sqrt();
-            h[2][i] += env * rng.gaussian() / 2f64.sqrt();
+        let [h0, h1, h2] = &mut h;
+        let tail = h0[start..]
+            .iter_mut()
+            .zip(&mut h1[start..])
+            .zip(&mut h2[start..]);
+        for (k, ((w, x), y)) in tail.enumerate() {
+            let env = 0.05 * (-(k as f64) / (0.04 * f64::from(RATE))).exp();
+            *w += env * rng.gaussian();
+            *x += env * rng.gaussian() / 2f64.sqrt();
+            *y += env * rng.gaussian() / 2f64.sqrt();
         }
         h
     }

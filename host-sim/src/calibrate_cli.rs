@@ -337,3 +337,93 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
     }
     root.present().map_err(|e| err(&e))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn s(p: &Path) -> String {
+        p.display().to_string()
+    }
+
+    #[test]
+    fn cli_errors_are_clear_and_write_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let sweep = d.join("sweep.wav");
+        crate::run([
+            "host-sim",
+            "sweep",
+            "--out",
+            &s(&sweep),
+            "--seconds",
+            "0.5",
+            "--rate",
+            "16000",
+            "--f2",
+            "7000",
+        ])
+        .unwrap();
+        // A 2-channel "recording".
+        let two = d.join("two.wav");
+        write_wav(&two, 16_000, 2, &vec![0.1; 2 * 16_000], OutFormat::Pcm16).unwrap();
+        let out = d.join("t.cmat");
+        let e = crate::run([
+            "host-sim",
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--f2",
+            "7000",
+            "--rec",
+            &format!("0={}", s(&two)),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("expected 4 channels"), "{e}");
+        let e = crate::run([
+            "host-sim",
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--rec",
+            "north=x.wav",
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("not an azimuth"), "{e}");
+        // A 4-channel recording of silence: no impulse response in it.
+        let four = d.join("four.wav");
+        write_wav(&four, 16_000, 4, &vec![0.0; 4 * 16_000], OutFormat::Pcm16).unwrap();
+        let e = crate::run([
+            "host-sim",
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--f2",
+            "7000",
+            "--rec",
+            &format!("0={}", s(&four)),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("does not match the sweep"), "{e}");
+        assert!(!out.exists());
+        // A table file with a bad header is refused by locate.
+        let bad = d.join("bad.cmat");
+        std::fs::write(&bad, b"CMAREFT\0\x07\0\0\0\x48\0\x01\0\0\0\0\0").unwrap();
+        let e = crate::run(["host-sim", "locate", &s(&four), "--table", &s(&bad)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bad.cmat") && e.contains("truncated"), "{e}");
+        let names: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(names.iter().all(|n| !n.contains("partial")), "{names:?}");
+    }
+}
