@@ -62,7 +62,7 @@ impl SweepSpec {
         self.len() == 0
     }
 
-    /// The sweep of eq. 2.43, s[n] = sin(A·(e^{n/(f_s τ)} − 1)) with τ = T / ln(f₂/f₁), A = 2π f₁ τ,
+    /// The sweep of eq. 2.43, s\[n\] = sin(A·(e^{n/(f_s τ)} − 1)) with τ = T / ln(f₂/f₁), A = 2π f₁ τ,
     /// with 10 ms half-Hann fades at both ends so the loudspeaker does not click (the fades only touch
     /// frequencies below f₁·1.01 and near f₂, outside the analysis band of the calibration).
     #[must_use]
@@ -88,7 +88,7 @@ impl SweepSpec {
 }
 
 /// Deconvolves sweep responses with one excitation (eq. 2.44–2.46), regularised:
-/// Ĥ[k] = X[k]·S*[k] / (|S[k]|² + λ[k]) with λ = ε·max|S|², ε = 10⁻⁴ inside [f₁, f₂] and ε = 1 outside,
+/// Ĥ\[k\] = X\[k\]·S*\[k\] / (|S\[k\]|² + λ\[k\]) with λ = ε·max|S|², ε = 10⁻⁴ inside [f₁, f₂] and ε = 1 outside,
 /// so bins the sweep does not excite are suppressed rather than amplified (plain eq. 2.44 divides by
 /// almost nothing there).
 pub struct Deconvolver {
