@@ -5,6 +5,12 @@
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
+// The table-file parser of the core itself (no_std, `core` only), so the build reads exactly the
+// format the host tools write.
+#[allow(dead_code)]
+#[path = "src/table_file.rs"]
+mod table_file;
+
 const FRAME_LEN: usize = 512;
 
 fn bessel_i0(x: f64) -> f64 {
@@ -125,7 +131,72 @@ fn main() {
         writeln!(out, "];").unwrap();
     }
 
+    println!("cargo::rustc-check-cfg=cfg(cma_measured_table)");
+    println!("cargo:rerun-if-env-changed=CMA_TABLE");
+    if let Some(table) = std::env::var_os("CMA_TABLE").filter(|v| !v.is_empty()) {
+        measured_table(&mut out, std::path::Path::new(&table));
+        println!("cargo:rustc-cfg=cma_measured_table");
+    }
+
     let path = std::path::Path::new(&std::env::var("OUT_DIR").unwrap()).join("tables.rs");
     std::fs::write(path, out).unwrap();
     println!("cargo:rerun-if-changed=build.rs");
+}
+
+/// Emits the `MEASURED_*` statics of the reference-table file named by `CMA_TABLE`; a bad file fails
+/// the build with the parser's message.
+fn measured_table(out: &mut String, path: &std::path::Path) {
+    let path = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::path::Path::new(&std::env::var("CARGO_MANIFEST_DIR").unwrap()).join(path)
+    };
+    println!("cargo:rerun-if-changed={}", path.display());
+    let bytes = std::fs::read(&path)
+        .unwrap_or_else(|e| panic!("CMA_TABLE={}: cannot read: {e}", path.display()));
+    let v =
+        table_file::parse(&bytes).unwrap_or_else(|e| panic!("CMA_TABLE={}: {e}", path.display()));
+    let (q, f) = (v.num_azimuths(), v.num_freqs());
+    let az: Vec<f64> = (0..q).map(|i| f64::from(v.azimuth_deg(i))).collect();
+    let fr: Vec<f64> = (0..f).map(|i| f64::from(v.freq_hz(i))).collect();
+    let src = path.display();
+    write_f32_array(
+        out,
+        &format!("/// Azimuths (degrees) of the measured table `{src}`."),
+        "MEASURED_AZIMUTHS",
+        &az,
+    );
+    write_f32_array(
+        out,
+        &format!("/// Frequency rows (Hz) of the measured table `{src}`."),
+        "MEASURED_FREQS",
+        &fr,
+    );
+    let mut feature_array = |doc: &str, name: &str, n: usize, get: &dyn Fn(usize) -> [f32; 3]| {
+        writeln!(out, "{doc}").unwrap();
+        writeln!(out, "pub static {name}: [[f32; 3]; {n}] = [").unwrap();
+        for i in 0..n {
+            let [a, b, c] = get(i);
+            writeln!(out, "    [{a:?}, {b:?}, {c:?}],").unwrap();
+        }
+        writeln!(out, "];").unwrap();
+    };
+    feature_array(
+        &format!("/// Features of the measured table `{src}`, frequency-major."),
+        "MEASURED_FEATURES",
+        f * q,
+        &|i| v.feature(i),
+    );
+    feature_array(
+        "/// Omni-noise features (magnitude mixing) of the measured table.",
+        "MEASURED_NOISE_MAGNITUDE",
+        f,
+        &|i| v.noise_magnitude(i),
+    );
+    feature_array(
+        "/// Omni-noise features (power mixing) of the measured table.",
+        "MEASURED_NOISE_POWER",
+        f,
+        &|i| v.noise_power(i),
+    );
 }

@@ -17,6 +17,7 @@ fn scene() -> Vec<[f32; 4]> {
         room: None,
         peak_dbfs: -3.0,
         seed: 9,
+        array: Default::default(),
     };
     synthesize(&spec).frames
 }

@@ -190,6 +190,7 @@ pub fn beam_report(data: &Path, snr_db: f64, rate: u32) -> Result<Vec<BeamRow>> 
             room,
             peak_dbfs: -3.0,
             seed: 7,
+            array: Default::default(),
         };
         let parts = scene::synthesize_parts(&spec, None);
         let mix: Vec<[f32; 4]> = parts
@@ -288,6 +289,7 @@ mod tests {
             room: None,
             peak_dbfs: -3.0,
             seed: 5,
+            array: Default::default(),
         };
         let p = scene::synthesize_parts(&spec, None);
         let mix: Vec<[f32; 4]> = p

@@ -58,6 +58,9 @@ pub struct ConfigArgs {
     /// Azimuth grid of the ideal reference table, degrees (5 or 15).
     #[arg(long, default_value_t = 5)]
     pub grid: u32,
+    /// Measured reference table (`host-sim calibrate`); replaces the ideal table of --grid.
+    #[arg(long)]
+    pub table: Option<std::path::PathBuf>,
     /// Number of spectral peaks N_p.
     #[arg(long)]
     pub peaks: Option<usize>,
@@ -217,6 +220,25 @@ impl ConfigArgs {
         }
         self.options.apply(&mut c)?;
         Ok(c)
+    }
+
+    /// Reads the `--table` file, if any.
+    pub fn measured_table(&self) -> Result<Option<crate::table_io::OwnedTable>> {
+        self.table
+            .as_deref()
+            .map(crate::table_io::OwnedTable::read)
+            .transpose()
+    }
+
+    /// The reference table to use: `measured` (from [`Self::measured_table`]) or the ideal one.
+    pub fn table<'a>(
+        &self,
+        measured: Option<&'a crate::table_io::OwnedTable>,
+    ) -> Result<ReferenceTable<'a>> {
+        match measured {
+            Some(t) => t.as_table(),
+            None => self.ideal_table(),
+        }
     }
 
     /// The ideal reference table for `--grid`.

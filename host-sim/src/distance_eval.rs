@@ -143,6 +143,7 @@ pub fn distance_report(
                         room: None,
                         peak_dbfs: -3.0,
                         seed: 11 + si as u64,
+                        array: Default::default(),
                     };
                     let p = scene::synthesize_parts(&spec, Some(r as f64));
                     let mix: Vec<[f32; 4]> = p
@@ -213,6 +214,7 @@ mod tests {
                 room: None,
                 peak_dbfs: -3.0,
                 seed: 1,
+                array: Default::default(),
             };
             let p = scene::synthesize_parts(&spec, Some(*r as f64));
             let (_, total) = analyse(&p.talker, rate, 40.0, (80.0, 500.0), 5);

@@ -4,7 +4,10 @@
 //! desk needs: evaluation against ground truth with plots, and a scene simulator for tests.
 //! The binary `host-sim` is a thin wrapper around [`run`].
 
+pub mod array_model;
 pub mod beam;
+pub mod calibrate;
+pub mod calibrate_cli;
 pub mod config_args;
 pub mod distance_eval;
 pub mod emit;
@@ -21,6 +24,8 @@ pub mod scene;
 pub mod score;
 pub mod serial_link;
 pub mod signal;
+pub mod sweep;
+pub mod table_io;
 pub mod wav_io;
 
 pub mod thesis_option_commands;
@@ -68,6 +73,10 @@ pub enum Command {
     OptionsEval(thesis_option_commands::OptionsEvalArgs),
     /// Measure the proximity-effect distance estimate on simulated near-field scenes.
     DistanceReport(thesis_option_commands::DistanceReportArgs),
+    /// Write the exponential sine sweep (thesis eq. 2.43) to play for a calibration.
+    Sweep(calibrate_cli::SweepArgs),
+    /// Measure a reference table from sweep recordings at known azimuths.
+    Calibrate(calibrate_cli::CalibrateArgs),
 }
 
 /// `host-sim locate`.
@@ -168,6 +177,9 @@ pub struct SceneArgs {
     /// Set name for --manifest.
     #[arg(long, default_value = "scenes")]
     pub set: String,
+    /// Capsule imperfections of the simulated array.
+    #[command(flatten)]
+    pub array: array_model::ArrayArgs,
 }
 
 /// Parses `args` (including the program name) and runs the command.
@@ -200,6 +212,8 @@ where
         Command::BeamReport(a) => thesis_option_commands::beam_report(&a),
         Command::OptionsEval(a) => thesis_option_commands::options_eval(&a),
         Command::DistanceReport(a) => thesis_option_commands::distance_report(&a),
+        Command::Sweep(a) => calibrate_cli::cmd_sweep(&a),
+        Command::Calibrate(a) => calibrate_cli::cmd_calibrate(&a),
     }
 }
 
@@ -216,7 +230,8 @@ fn progress_bar(total: u64) -> indicatif::ProgressBar {
 
 fn cmd_locate(a: &LocateArgs) -> Result<()> {
     let config = a.config.config()?;
-    let table = a.config.ideal_table()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
     let pb = progress_bar(rec.frames.len() as u64);
     let rows = locate::locate(&rec, config, table, |n| pb.inc(n as u64))?;
@@ -233,7 +248,8 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
 
 fn cmd_eval(a: &EvalArgs) -> Result<()> {
     let config = a.config.config()?;
-    let table = a.config.ideal_table()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -294,6 +310,7 @@ fn cmd_scene(a: &SceneArgs) -> Result<()> {
         room,
         peak_dbfs: a.peak_dbfs,
         seed: a.seed,
+        array: a.array.model()?,
     };
     let s = scene::synthesize(&spec);
     scene::write_scene(

@@ -13,7 +13,7 @@ const FONT_PATHS: [&str; 3] = [
 ];
 
 /// Registers a TrueType font for the plots' text once (Debian: `fonts-dejavu-core`).
-fn ensure_font() -> Result<()> {
+pub(crate) fn ensure_font() -> Result<()> {
     static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {
         for p in FONT_PATHS {

@@ -7,11 +7,11 @@
 //! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E[X²] = E[Y²] = E[Z²] = E[W²]/3. The capsules then
 //! see omni = W and cardioid_m = ½W + ½(X cos φ_m + Y sin φ_m), so |card|²/|omni|² = ⅓ on average.
 
+use crate::array_model::ArrayModel;
 use crate::error::{Result, SimError};
 use crate::ground_truth::{wrap180, Track};
 use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
 use crate::wav_io::{read_interleaved, read_mono, write_atomically, write_wav, OutFormat};
-use cma_core::CARDIOID_LOOK_DEG;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -172,6 +172,8 @@ pub struct SceneSpec {
     pub peak_dbfs: f64,
     /// Seed of the noise.
     pub seed: u64,
+    /// Capsule model (ideal by default); applied to talker and noise alike.
+    pub array: ArrayModel,
 }
 
 /// A synthesised scene: CMA1 sample frames and truth.
@@ -280,48 +282,16 @@ pub fn talker_activity(source: &[f64], rate: u32) -> (usize, usize) {
 /// Synthesises a scene.
 #[must_use]
 pub fn synthesize(spec: &SceneSpec) -> Scene {
+    let parts = synthesize_parts(spec, None);
     let rate = spec.rate as f64;
     let lead = (spec.lead_in_s * rate).round() as usize;
-    let tail = spec.room.as_ref().map_or(0, |r| r.w.len());
-    let total = lead + spec.source.len() + tail.min((0.3 * rate) as usize);
-    let [w, x, y] = render_talker(spec, total, lead);
-    let active = (lead, lead + spec.source.len());
-    let talker_power = w[active.0..active.1].iter().map(|v| v * v).sum::<f64>()
-        / (active.1 - active.0).max(1) as f64;
-
-    let mut ch: Vec<[f64; 4]> = (0..total)
-        .map(|n| {
-            let mut f = [w[n], 0.0, 0.0, 0.0];
-            for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
-                let a = (*look as f64).to_radians();
-                f[m + 1] = 0.5 * w[n] + 0.5 * (x[n] * a.cos() + y[n] * a.sin());
-            }
-            f
-        })
-        .collect();
-    if let Some(snr) = spec.snr_db {
-        let mut rng = Rng::new(spec.seed);
-        let nw = pink_noise(&mut rng, total);
-        let nx = pink_noise(&mut rng, total);
-        let ny = pink_noise(&mut rng, total);
-        let g = (talker_power * 10f64.powf(-snr / 10.0)).sqrt();
-        let gd = g / 3f64.sqrt();
-        for (n, f) in ch.iter_mut().enumerate() {
-            let (w, x, y) = (g * nw[n], gd * nx[n], gd * ny[n]);
-            f[0] += w;
-            for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
-                let a = (*look as f64).to_radians();
-                f[m + 1] += 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
-            }
-        }
-    }
-    let peak = ch
+    let total = parts.talker.len();
+    let frames = parts
+        .talker
         .iter()
-        .flat_map(|f| f.iter())
-        .fold(0.0f64, |m, v| m.max(v.abs()))
-        .max(1e-12);
-    let gain = 10f64.powf(spec.peak_dbfs / 20.0) / peak;
-    let frames = ch.iter().map(|f| f.map(|v| (v * gain) as f32)).collect();
+        .zip(&parts.noise)
+        .map(|(t, n)| [t[0] + n[0], t[1] + n[1], t[2] + n[2], t[3] + n[3]])
+        .collect();
     let t_end = total as f64 / rate;
     let track = match &spec.motion {
         Motion::Steps(rows) => Track { rows: rows.clone() },
@@ -507,15 +477,7 @@ pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> ScenePar
     let active = (lead, lead + spec.source.len());
     let talker_power = w[active.0..active.1].iter().map(|v| v * v).sum::<f64>()
         / (active.1 - active.0).max(1) as f64;
-    let to_cma = |w: f64, x: f64, y: f64| {
-        let mut f = [w, 0.0, 0.0, 0.0];
-        for (m, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
-            let a = (*look as f64).to_radians();
-            f[m + 1] = 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
-        }
-        f
-    };
-    let talker: Vec<[f64; 4]> = (0..total).map(|n| to_cma(w[n], x[n], y[n])).collect();
+    let talker: Vec<[f64; 4]> = spec.array.render(&w, &x, &y, spec.rate);
     let noise: Vec<[f64; 4]> = match spec.snr_db {
         Some(snr) => {
             let mut rng = Rng::new(spec.seed);
@@ -524,9 +486,13 @@ pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> ScenePar
             let ny = pink_noise(&mut rng, total);
             let g = (talker_power * 10f64.powf(-snr / 10.0)).sqrt();
             let gd = g / 3f64.sqrt();
-            (0..total)
-                .map(|n| to_cma(g * nw[n], gd * nx[n], gd * ny[n]))
-                .collect()
+            let scaled = |v: &[f64], k: f64| v.iter().map(|s| k * s).collect::<Vec<f64>>();
+            spec.array.render(
+                &scaled(&nw, g),
+                &scaled(&nx, gd),
+                &scaled(&ny, gd),
+                spec.rate,
+            )
         }
         None => vec![[0.0; 4]; total],
     };

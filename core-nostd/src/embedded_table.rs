@@ -1,0 +1,62 @@
+//! The reference table compiled into the binary: a measured table when the build names one with the
+//! environment variable `CMA_TABLE`, the ideal-model 5° table otherwise.
+//!
+//! `build.rs` reads the file named by `CMA_TABLE` (an absolute path, or one relative to the
+//! `core-nostd` directory) with [`crate::table_file::parse`], fails the build with the parser's message
+//! if the file is bad, and emits its arrays as `static`s (`MEASURED_*` in [`crate::tables`]), so the
+//! table sits in flash once. Flash cost: 12·F·Q + 28·F + 4·Q bytes (f32), e.g. 37.7 KB for the default
+//! calibration (Q = 72, F = 42). Rebuilds follow changes of the variable and of the file.
+//!
+//! ```text
+//! CMA_TABLE=/abs/path/array42.cmat cargo build --release -p firmware
+//! ```
+//! and in the firmware: `ReferenceTable::embedded()` instead of `ReferenceTable::ideal_5deg()`.
+
+use crate::reference_table::ReferenceTable;
+
+/// True when this build embeds a measured table (`CMA_TABLE` was set).
+pub const HAS_MEASURED_TABLE: bool = cfg!(cma_measured_table);
+
+impl ReferenceTable<'static> {
+    /// The table embedded at build time: the measured one named by `CMA_TABLE`, else
+    /// [`ReferenceTable::ideal_5deg`].
+    #[must_use]
+    pub fn embedded() -> ReferenceTable<'static> {
+        #[cfg(cma_measured_table)]
+        {
+            use crate::tables::{
+                MEASURED_AZIMUTHS, MEASURED_FEATURES, MEASURED_FREQS, MEASURED_NOISE_MAGNITUDE,
+                MEASURED_NOISE_POWER,
+            };
+            // Note: build.rs validated shape and content with the same rules as `new`, so this
+            // cannot fail; the ideal table is only a formal fallback.
+            if let Ok(t) = ReferenceTable::new(
+                &MEASURED_AZIMUTHS,
+                &MEASURED_FREQS,
+                &MEASURED_FEATURES,
+                &MEASURED_NOISE_MAGNITUDE,
+                &MEASURED_NOISE_POWER,
+            ) {
+                return t;
+            }
+        }
+        ReferenceTable::ideal_5deg()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_is_ideal_without_cma_table() {
+        if !HAS_MEASURED_TABLE {
+            assert_eq!(ReferenceTable::embedded(), ReferenceTable::ideal_5deg());
+        } else {
+            // CMA_TABLE=… cargo test -p cma-core --lib embedded
+            let t = ReferenceTable::embedded();
+            assert_ne!(t, ReferenceTable::ideal_5deg());
+            assert_eq!(t.features().len(), t.num_freqs() * t.num_azimuths());
+        }
+    }
+}
