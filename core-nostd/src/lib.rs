@@ -35,6 +35,7 @@ pub mod decimator;
 pub mod direct_sound;
 pub mod error;
 pub mod estimate;
+pub mod fast_math;
 pub mod fdiv;
 pub mod features;
 pub mod framer;
