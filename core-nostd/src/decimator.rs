@@ -15,6 +15,7 @@
 
 use crate::error::Error;
 use crate::tables::{HALFBAND_LONG, HALFBAND_SHORT};
+use crate::CHANNELS;
 
 /// Longest half-band delay line (taps of the long stage).
 const MAX_TAPS: usize = 4 * HALFBAND_LONG.len() - 1;
@@ -206,6 +207,147 @@ impl Decimator {
             return Some(v);
         }
         halfband_step(k2, s2, v)
+    }
+}
+
+/// Input samples one pass of [`BlockDecimator::run`] takes at most.
+pub const PIECE: usize = 64;
+/// History kept per stage: the longest stage's taps minus one.
+const HIST: usize = MAX_TAPS - 1;
+
+/// Block-wise decimator state of one channel: per stage, a linear buffer holding the stage's last
+/// `taps − 1` inputs followed by the new ones, so the filters read contiguous windows.
+#[derive(Debug, Clone, Copy)]
+struct ChannelLines {
+    s0: [f32; HIST + PIECE],
+    s1: [f32; HIST + PIECE / 2],
+    s2: [f32; HIST + PIECE / 4],
+}
+
+/// Decimator state of all channels for block processing ([`BlockDecimator::run`]): each stage runs
+/// over a whole piece of input of every channel in turn and computes only the samples it keeps
+/// (polyphase half-band: every other output, the zero taps skipped). The outputs are bit-identical to
+/// [`Decimator::process`] sample by sample, whatever the piece sizes.
+#[derive(Debug, Clone, Copy)]
+pub struct BlockDecimator {
+    lines: [ChannelLines; CHANNELS],
+    /// Per stage: an odd number of inputs so far (the next input completes an output).
+    odd: [bool; 3],
+}
+
+impl Default for BlockDecimator {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Runs one stage over `m` new inputs in `buf[h..h + m]` (`h = taps − 1` older inputs before them),
+/// writes its outputs to `out`, keeps the last `h` inputs at the front; returns the output count.
+#[inline(always)]
+fn run_stage_pairs<const P: usize>(
+    pairs: &[f32; P],
+    buf: &mut [f32],
+    m: usize,
+    odd: &mut bool,
+    out: &mut [f32],
+) -> usize {
+    let taps = 4 * P - 1;
+    let h = taps - 1;
+    let mid = taps / 2;
+    let mut n = 0;
+    let mut j = usize::from(!*odd);
+    while j < m {
+        // The window of the output completed by new input j: inputs j − h … j, oldest first.
+        let w = &buf[j..j + taps];
+        let mut acc = 0.5 * w[mid];
+        for (k, c) in pairs.iter().enumerate() {
+            let off = 2 * k + 1;
+            acc += c * (w[mid - off] + w[mid + off]);
+        }
+        out[n] = acc;
+        n += 1;
+        j += 2;
+    }
+    buf.copy_within(m..m + h, 0);
+    *odd ^= m % 2 == 1;
+    n
+}
+
+#[inline(always)]
+fn run_stage(
+    kind: HalfbandKind,
+    buf: &mut [f32],
+    m: usize,
+    odd: &mut bool,
+    out: &mut [f32],
+) -> usize {
+    match kind {
+        HalfbandKind::Short => run_stage_pairs(&HALFBAND_SHORT, buf, m, odd, out),
+        HalfbandKind::Long => run_stage_pairs(&HALFBAND_LONG, buf, m, odd, out),
+    }
+}
+
+impl BlockDecimator {
+    /// Zeroed delay lines.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            lines: [ChannelLines {
+                s0: [0.0; HIST + PIECE],
+                s1: [0.0; HIST + PIECE / 2],
+                s2: [0.0; HIST + PIECE / 4],
+            }; CHANNELS],
+            odd: [false; 3],
+        }
+    }
+
+    /// Zeroes the delay lines in place.
+    pub fn reset(&mut self) {
+        for l in self.lines.iter_mut() {
+            l.s0.fill(0.0);
+            l.s1.fill(0.0);
+            l.s2.fill(0.0);
+        }
+        self.odd = [false; 3];
+    }
+
+    /// Where the next piece of input goes: per channel, [`PIECE`] slots for the first stage (used when
+    /// the decimator has at least one stage).
+    pub fn input_mut(&mut self, d: &Decimator) -> [&mut [f32]; CHANNELS] {
+        let h = d.stages[0].taps() - 1;
+        self.lines.each_mut().map(|l| &mut l.s0[h..h + PIECE])
+    }
+
+    /// Decimates `m ≤ PIECE` new inputs per channel (written through [`BlockDecimator::input_mut`])
+    /// into `out` (per channel, room for all outputs); returns the number of outputs per channel.
+    /// `d` must have at least one stage.
+    pub fn run(&mut self, d: &Decimator, m: usize, out: [&mut [f32]; CHANNELS]) -> usize {
+        assert!(m <= PIECE && d.n_stages >= 1);
+        let [k0, k1, k2] = d.stages;
+        let odd = self.odd;
+        let mut odd_after = odd;
+        let mut n = 0;
+        for (l, out) in self.lines.iter_mut().zip(out) {
+            let [mut a0, mut a1, mut a2] = odd;
+            n = match d.n_stages {
+                1 => run_stage(k0, &mut l.s0, m, &mut a0, out),
+                2 => {
+                    let h1 = k1.taps() - 1;
+                    let m1 = run_stage(k0, &mut l.s0, m, &mut a0, &mut l.s1[h1..]);
+                    run_stage(k1, &mut l.s1, m1, &mut a1, out)
+                }
+                _ => {
+                    let h1 = k1.taps() - 1;
+                    let h2 = k2.taps() - 1;
+                    let m1 = run_stage(k0, &mut l.s0, m, &mut a0, &mut l.s1[h1..]);
+                    let m2 = run_stage(k1, &mut l.s1, m1, &mut a1, &mut l.s2[h2..]);
+                    run_stage(k2, &mut l.s2, m2, &mut a2, out)
+                }
+            };
+            odd_after = [a0, a1, a2];
+        }
+        self.odd = odd_after;
+        n
     }
 }
 

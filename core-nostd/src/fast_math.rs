@@ -25,19 +25,27 @@ pub fn sqrtf(x: f32) -> f32 {
 #[inline(always)]
 #[allow(unsafe_code)]
 fn vsqrt(x: f32) -> f32 {
-    let y: f32;
-    // Note(unsafe): one FPU instruction on registers only: it reads `x`, writes `y`, touches no
-    // memory and no stack, and the hard-float ABI (`eabihf`) guarantees the FPU is present and enabled
-    // (cortex-m-rt enables it before `main`). Its result is IEEE correctly rounded (round to nearest).
+    let y: u32;
+    // Note(unsafe): register-only FPU code: no memory, no stack. Stable Rust does not let `asm!` name FPU
+    // registers (the `vfp2` feature is unstable), so the operands travel in core registers and the
+    // instruction borrows `s0`, which the block saves in `{t}` and restores, leaving every register but
+    // the outputs as it found them. The hard-float ABI (`eabihf`) guarantees the FPU is present and
+    // enabled (cortex-m-rt enables it before `main`). VSQRT.F32 is IEEE correctly rounded
+    // (round-to-nearest, the reset mode), like `libm::sqrtf`.
     unsafe {
         core::arch::asm!(
-            "vsqrt.f32 {y}, {x}",
-            x = in(sreg) x,
-            y = lateout(sreg) y,
+            "vmov {t}, s0",
+            "vmov s0, {x}",
+            "vsqrt.f32 s0, s0",
+            "vmov {y}, s0",
+            "vmov s0, {t}",
+            x = in(reg) x.to_bits(),
+            y = lateout(reg) y,
+            t = out(reg) _,
             options(pure, nomem, nostack, preserves_flags)
         );
     }
-    y
+    f32::from_bits(y)
 }
 
 #[cfg(test)]

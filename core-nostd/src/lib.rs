@@ -39,6 +39,7 @@ pub mod fast_math;
 pub mod fdiv;
 pub mod features;
 pub mod framer;
+pub mod front_end;
 pub mod grid_tracker;
 pub mod input_guard;
 pub mod interpolation;

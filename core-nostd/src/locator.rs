@@ -12,15 +12,15 @@
 
 use crate::angle::wrap_deg;
 use crate::config::{LocatorConfig, Method, Tracking};
-use crate::decimator::{Decimator, DecimatorState};
+use crate::decimator::Decimator;
 use crate::direct_sound::{DirectSound, OnsetState};
 use crate::error::Error;
 use crate::estimate::{Estimate, Flags};
 use crate::fdiv::{fdiv_process, FdivState};
 use crate::features::feature_from_powers;
-use crate::framer::Framer;
+use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
-use crate::input_guard::{InputGuard, InputGuardState};
+use crate::input_guard::InputGuard;
 use crate::interpolation::{argmax_parabolic, argmax_parabolic_mapped};
 use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
@@ -48,7 +48,6 @@ pub struct Locator<'t> {
     config: LocatorConfig,
     table: ReferenceTable<'t>,
     decimator: Decimator,
-    guard: InputGuard,
     picker: PeakPicker,
     curves: CurveBuilder,
     /// Frequency row of the reference table for each bin.
@@ -56,10 +55,8 @@ pub struct Locator<'t> {
     /// Twice the decimator's time offset in input samples.
     offset2: i64,
 
-    guard_state: InputGuardState,
-    dec_state: [DecimatorState; CHANNELS],
-    framer: Framer,
-    frame: [[f32; FRAME_LEN]; CHANNELS],
+    /// Input guard, decimator and framer (the analysis frame is read in place from it).
+    front: FrontEnd,
     scratch: [f32; FRAME_LEN],
     spectra: [[Complex32; NUM_BINS]; CHANNELS],
     omni_power: [f32; NUM_BINS],
@@ -140,18 +137,17 @@ impl<'t> Locator<'t> {
             config,
             table,
             decimator,
-            guard: InputGuard {
-                clip_level: c.clip_level,
-                hold_samples: hold,
-            },
             picker,
             curves,
             bin_rows,
             offset2: libm::round(2.0 * decimator.time_offset()) as i64,
-            guard_state: InputGuardState::default(),
-            dec_state: [DecimatorState::new(); CHANNELS],
-            framer: Framer::new(),
-            frame: [[0.0; FRAME_LEN]; CHANNELS],
+            front: FrontEnd::new(
+                decimator,
+                InputGuard {
+                    clip_level: c.clip_level,
+                    hold_samples: hold,
+                },
+            ),
             scratch: [0.0; FRAME_LEN],
             spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
             omni_power: [0.0; NUM_BINS],
@@ -223,26 +219,20 @@ impl<'t> Locator<'t> {
         block: &[[f32; CHANNELS]],
         mut on_estimate: impl FnMut(&Estimate),
     ) {
-        for x in block {
-            if let Some(e) = self.process_sample(*x) {
-                on_estimate(&e);
+        let mut rest = block;
+        while !rest.is_empty() {
+            let (used, ready) = self.front.feed(rest);
+            rest = &rest[used..];
+            if ready {
+                on_estimate(&self.analyze());
             }
         }
     }
 
     /// Feeds one sample frame; returns an estimate when it completes an analysis frame.
     #[inline]
-    pub fn process_sample(&mut self, mut x: [f32; CHANNELS]) -> Option<Estimate> {
-        self.guard.process(&mut self.guard_state, &mut x);
-        let mut y = [0.0f32; CHANNELS];
-        let mut ready = false;
-        for ((out, st), v) in y.iter_mut().zip(self.dec_state.iter_mut()).zip(x) {
-            if let Some(s) = self.decimator.process(st, v) {
-                *out = s;
-                ready = true;
-            }
-        }
-        if ready && self.framer.push(y) {
+    pub fn process_sample(&mut self, x: [f32; CHANNELS]) -> Option<Estimate> {
+        if self.front.feed(core::slice::from_ref(&x)).1 {
             Some(self.analyze())
         } else {
             None
@@ -250,9 +240,10 @@ impl<'t> Locator<'t> {
     }
 
     fn analyze(&mut self) -> Estimate {
-        let index = self.framer.take_frame(&mut self.frame);
-        let mut flags = self.guard.flags(&self.guard_state);
-        let frame_power = self.frame[0].iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
+        let index = self.front.take_index();
+        let mut flags = self.front.flags();
+        let frame_power =
+            self.front.frame()[0].iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
         if !(frame_power >= self.config.silence_power) {
             flags.insert(Flags::SILENT);
         }
@@ -296,10 +287,14 @@ impl<'t> Locator<'t> {
             };
         }
         let iv = if self.config.method == Method::Tdiv {
-            tdiv_process(self.config.tdiv_pole, &mut self.tdiv, &self.frame)
+            tdiv_process(self.config.tdiv_pole, &mut self.tdiv, self.front.frame())
         } else {
             for ch in 0..CHANNELS {
-                windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
+                windowed_spectrum(
+                    &self.front.frame()[ch],
+                    &mut self.scratch,
+                    &mut self.spectra[ch],
+                );
             }
             fdiv_process(
                 self.config.fdiv_pole,
@@ -319,7 +314,11 @@ impl<'t> Locator<'t> {
         let fs = self.decimator.output_rate() as f32;
         let _ = fs;
         for ch in 0..CHANNELS {
-            windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
+            windowed_spectrum(
+                &self.front.frame()[ch],
+                &mut self.scratch,
+                &mut self.spectra[ch],
+            );
         }
         for (p, c) in self.omni_power.iter_mut().zip(self.spectra[0].iter()) {
             *p = power(*c);

@@ -132,7 +132,9 @@ impl CurveBuilder {
                         da
                     }
                 };
-                *c += weight / (1.0 + sqrtf(best.max(0.0)));
+                // `if` rather than `f32::max`, which is a library call on the Cortex-M4F.
+                let best = if best > 0.0 { best } else { 0.0 };
+                *c += weight / (1.0 + sqrtf(best));
             }
             return;
         }

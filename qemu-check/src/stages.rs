@@ -4,10 +4,10 @@
 //! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at 48 kHz.
 
 use crate::scene::{Scene, HOP_SAMPLES};
-use cma_core::decimator::{Decimator, DecimatorState};
+use cma_core::decimator::Decimator;
 use cma_core::features::feature_from_powers;
-use cma_core::framer::Framer;
-use cma_core::input_guard::{InputGuard, InputGuardState};
+use cma_core::front_end::FrontEnd;
+use cma_core::input_guard::InputGuard;
 use cma_core::interpolation::argmax_parabolic;
 use cma_core::noisy_reference::NoisyReferences;
 use cma_core::peak_picker::{PeakPicker, Peaks};
@@ -78,11 +78,7 @@ pub struct Bench {
     peaks: Peaks,
     curve: [f32; MAX_AZIMUTHS],
     filter: CurveFilter,
-    framer: Framer,
-    dec: Decimator,
-    dec_state: [DecimatorState; CHANNELS],
-    guard: InputGuard,
-    guard_state: InputGuardState,
+    front: FrontEnd,
     picker: PeakPicker,
     curves: CurveBuilder,
     table: ReferenceTable<'static>,
@@ -108,14 +104,13 @@ impl Bench {
             peaks: Peaks::default(),
             curve: [0.0; MAX_AZIMUTHS],
             filter: CurveFilter::new(),
-            framer: Framer::new(),
-            dec,
-            dec_state: [DecimatorState::new(); CHANNELS],
-            guard: InputGuard {
-                clip_level: c.clip_level,
-                hold_samples: 4 * (FRAME_LEN as u32 + 64),
-            },
-            guard_state: InputGuardState::default(),
+            front: FrontEnd::new(
+                dec,
+                InputGuard {
+                    clip_level: c.clip_level,
+                    hold_samples: 4 * (FRAME_LEN as u32 + 64),
+                },
+            ),
             picker: PeakPicker {
                 lo_bin: bin_of(c.band_lo_hz).max(1),
                 hi_bin: bin_of(c.band_hi_hz).min(NUM_BINS - 2),
@@ -141,7 +136,7 @@ impl Bench {
             scene.fill(&mut b.input);
             b.front_end();
         }
-        b.framer.take_frame(&mut b.frame);
+        b.frame.copy_from_slice(b.front.frame());
         b.spectra();
         b.peaks();
         b.similarity();
@@ -160,20 +155,11 @@ impl Bench {
     }
 
     fn front_end(&mut self) {
-        for x in black_box(&self.input).iter() {
-            let mut x = *x;
-            self.guard.process(&mut self.guard_state, &mut x);
-            let mut y = [0.0f32; CHANNELS];
-            let mut ready = false;
-            for ((out, st), v) in y.iter_mut().zip(self.dec_state.iter_mut()).zip(x) {
-                if let Some(s) = self.dec.process(st, v) {
-                    *out = s;
-                    ready = true;
-                }
-            }
-            if ready {
-                black_box(self.framer.push(y));
-            }
+        let mut rest = &black_box(&self.input)[..];
+        while !rest.is_empty() {
+            let (used, ready) = self.front.feed(rest);
+            black_box(ready);
+            rest = &rest[used..];
         }
     }
 
