@@ -27,7 +27,7 @@ use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance, CurveFilter};
 use crate::similarity::CurveBuilder;
-use crate::spectrum::{power, windowed_spectrum};
+use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
 use microfft::Complex32;
@@ -313,12 +313,15 @@ impl<'t> Locator<'t> {
         let q = self.table.num_azimuths();
         let fs = self.decimator.output_rate() as f32;
         let _ = fs;
-        for ch in 0..CHANNELS {
-            windowed_spectrum(
-                &self.front.frame()[ch],
-                &mut self.scratch,
-                &mut self.spectra[ch],
-            );
+        windowed_spectrum(
+            &self.front.frame()[0],
+            &mut self.scratch,
+            &mut self.spectra[0],
+        );
+        // The cardioids are needed only at the picked bins: `spectra[1..]` hold their folded frames
+        // for the direct DFT there (`dft_bins3`) instead of full spectra.
+        for ch in 1..CHANNELS {
+            fold_windowed(&self.front.frame()[ch], &mut self.spectra[ch]);
         }
         for (p, c) in self.omni_power.iter_mut().zip(self.spectra[0].iter()) {
             *p = power(*c);
@@ -333,19 +336,14 @@ impl<'t> Locator<'t> {
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
             let p0 = self.omni_power[k];
-            let pc = [
-                power(self.spectra[1][k]),
-                power(self.spectra[2][k]),
-                power(self.spectra[3][k]),
-            ];
+            let [_, f1, f2, f3] = &self.spectra;
+            let xc = dft_bins3([f1, f2, f3], k);
+            let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
             let Some(y) = feature_from_powers(p0, pc) else {
                 continue;
             };
             let w = if ds.enabled() {
-                let delta = DirectSound::directness(
-                    self.spectra[0][k],
-                    [self.spectra[1][k], self.spectra[2][k], self.spectra[3][k]],
-                );
+                let delta = DirectSound::directness(self.spectra[0][k], xc);
                 ds.peak_weight(&self.onset, k, p0, delta)
             } else {
                 1.0
