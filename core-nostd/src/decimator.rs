@@ -159,6 +159,16 @@ impl Decimator {
         })
     }
 
+    /// The factor-1 decimator at 12 kHz (a placeholder for constant initialisers).
+    #[must_use]
+    pub const fn passthrough() -> Self {
+        Self {
+            stages: [HalfbandKind::Long; 3],
+            n_stages: 0,
+            input_rate: 12_000,
+        }
+    }
+
     /// Decimation factor (1, 2, 4 or 8).
     #[must_use]
     pub fn factor(&self) -> u32 {

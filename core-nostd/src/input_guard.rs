@@ -66,23 +66,32 @@ impl InputGuard {
         let mut last_clip = 0usize;
         let mut last_nonfinite = 0usize;
         let level = self.clip_level;
-        let mut clean = |v: f32, i: usize| -> f32 {
-            // One comparison for the common case; NaN and ±Inf also fail it.
-            if v.abs() < level {
-                v
-            } else if !v.is_finite() {
-                last_nonfinite = i + 1;
-                0.0
-            } else {
-                last_clip = i + 1;
-                v.clamp(-1.0, 1.0)
-            }
-        };
+        // |v| < level ⟺ abs_bits(v) < abs_bits(level) for level > 0 (IEEE order of non-negative
+        // floats is the order of their bits; NaN and ±Inf are above every finite level): an integer
+        // test per value for the common case. A level ≤ 0 or NaN sends every value to the exact path.
+        let limit = if level > 0.0 { level.to_bits() } else { 0 };
+        let abs_bits = |v: f32| v.to_bits() & 0x7fff_ffff;
         for (i, x) in block.iter().enumerate() {
-            o0[i] = clean(x[0], i);
-            o1[i] = clean(x[1], i);
-            o2[i] = clean(x[2], i);
-            o3[i] = clean(x[3], i);
+            let mut x = *x;
+            let suspect = (abs_bits(x[0]) >= limit)
+                | (abs_bits(x[1]) >= limit)
+                | (abs_bits(x[2]) >= limit)
+                | (abs_bits(x[3]) >= limit);
+            if suspect {
+                for v in x.iter_mut() {
+                    if !v.is_finite() {
+                        *v = 0.0;
+                        last_nonfinite = i + 1;
+                    } else if v.abs() >= level {
+                        *v = v.clamp(-1.0, 1.0);
+                        last_clip = i + 1;
+                    }
+                }
+            }
+            o0[i] = x[0];
+            o1[i] = x[1];
+            o2[i] = x[2];
+            o3[i] = x[3];
         }
         // After a bad sample frame at index i the hold restarts and counts down n − 1 − i times.
         let count = |hold: u32, last: usize| -> u32 {

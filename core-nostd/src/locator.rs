@@ -30,6 +30,7 @@ use crate::similarity::CurveBuilder;
 use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
+use core::mem::MaybeUninit;
 use microfft::Complex32;
 
 /// Per-frame diagnostics of the similarity method, for plots and studies (not needed to localize).
@@ -43,7 +44,7 @@ pub struct FrameDiagnostics {
     pub mean_peak_weight: f32,
 }
 
-/// The localizer and all of its state (≈ 33 KB; place it in a `static` on the target).
+/// The localizer and all of its state (≈ 31 KB; build it in place on the target: [`Locator::init_in_place`]).
 pub struct Locator<'t> {
     config: LocatorConfig,
     table: ReferenceTable<'t>,
@@ -74,11 +75,91 @@ pub struct Locator<'t> {
 
 impl<'t> Locator<'t> {
     /// A localizer for input at `input_rate` Hz with `config` and reference `table`.
+    ///
+    /// The value is ≈ 31 KB: on a microcontroller build it in place instead
+    /// ([`Locator::init_in_place`], or [`Locator::empty`] in a `static` plus [`Locator::reset_with`]).
     pub fn new(
         config: LocatorConfig,
         table: ReferenceTable<'t>,
         input_rate: u32,
     ) -> Result<Self, Error> {
+        let mut locator = Self::empty(table);
+        locator.reset_with(config, table, input_rate)?;
+        Ok(locator)
+    }
+
+    /// Builds the localizer [`Locator::new`] returns directly in `slot` (no temporary on the stack),
+    /// e.g. in a `StaticCell::uninit()`. On error `slot` holds [`Locator::empty`].
+    pub fn init_in_place<'s>(
+        slot: &'s mut MaybeUninit<Self>,
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<&'s mut Self, Error> {
+        let locator = slot.write(Self::empty(table));
+        locator.reset_with(config, table, input_rate)?;
+        Ok(locator)
+    }
+
+    /// An unconfigured localizer with zeroed state (the thesis configuration at 12 kHz without
+    /// decimation and without noisy references): a constant, for a `static`. Configure it with
+    /// [`Locator::reset_with`] before use.
+    #[must_use]
+    pub const fn empty(table: ReferenceTable<'t>) -> Self {
+        Self {
+            config: LocatorConfig::thesis(),
+            table,
+            decimator: Decimator::passthrough(),
+            picker: PeakPicker {
+                lo_bin: 1,
+                hi_bin: NUM_BINS - 2,
+                num_peaks: 1,
+                min_power: 0.0,
+                fill: false,
+            },
+            curves: CurveBuilder {
+                measure: crate::similarity::SimilarityMeasure::Euclidean,
+                noisy: NoisyReferences::off(),
+                mean_free: false,
+            },
+            bin_rows: [0; NUM_BINS],
+            offset2: 0,
+            front: FrontEnd::new(
+                Decimator::passthrough(),
+                InputGuard {
+                    clip_level: 1.0,
+                    hold_samples: 0,
+                },
+            ),
+            scratch: [0.0; FRAME_LEN],
+            spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
+            omni_power: [0.0; NUM_BINS],
+            peaks: Peaks::new(),
+            curve: [0.0; MAX_AZIMUTHS],
+            filter: CurveFilter::new(),
+            tracker: GridTrackerState::new(),
+            onset: OnsetState::new(),
+            fdiv: FdivState::new(),
+            tdiv: TdivState::new(),
+            have_history: false,
+            last_azimuth: 0.0,
+            diagnostics: FrameDiagnostics {
+                curve_variance: 0.0,
+                num_peaks: 0,
+                mean_peak_weight: 0.0,
+            },
+        }
+    }
+
+    /// Reconfigures the localizer in place for input at `input_rate` Hz with `config` and `table`,
+    /// and resets all of its state: afterwards it is equal to `Locator::new(config, table, input_rate)`.
+    /// On error (the same checks as [`Locator::new`]) nothing is changed.
+    pub fn reset_with(
+        &mut self,
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<(), Error> {
         let decimator = Decimator::for_rate(input_rate)?;
         let fs = decimator.output_rate() as f32;
         let c = &config;
@@ -133,35 +214,35 @@ impl<'t> Locator<'t> {
         }
         let factor = decimator.factor();
         let hold = (FRAME_LEN as u32 + 64) * factor;
-        Ok(Self {
-            config,
-            table,
-            decimator,
-            picker,
-            curves,
-            bin_rows,
-            offset2: libm::round(2.0 * decimator.time_offset()) as i64,
-            front: FrontEnd::new(
-                decimator,
-                InputGuard {
-                    clip_level: c.clip_level,
-                    hold_samples: hold,
-                },
-            ),
-            scratch: [0.0; FRAME_LEN],
-            spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
-            omni_power: [0.0; NUM_BINS],
-            peaks: Peaks::default(),
-            curve: [0.0; MAX_AZIMUTHS],
-            filter: CurveFilter::new(),
-            tracker: GridTrackerState::new(),
-            onset: OnsetState::new(),
-            fdiv: FdivState::new(),
-            tdiv: TdivState::default(),
-            have_history: false,
-            last_azimuth: 0.0,
-            diagnostics: FrameDiagnostics::default(),
-        })
+        let offset2 = libm::round(2.0 * decimator.time_offset()) as i64;
+        let guard = InputGuard {
+            clip_level: c.clip_level,
+            hold_samples: hold,
+        };
+        self.config = config;
+        self.table = table;
+        self.decimator = decimator;
+        self.picker = picker;
+        self.curves = curves;
+        self.bin_rows = bin_rows;
+        self.offset2 = offset2;
+        self.front.reset(decimator, guard);
+        self.scratch.fill(0.0);
+        for s in self.spectra.iter_mut() {
+            s.fill(Complex32::new(0.0, 0.0));
+        }
+        self.omni_power.fill(0.0);
+        self.peaks = Peaks::new();
+        self.curve.fill(0.0);
+        self.filter = CurveFilter::new();
+        self.tracker = GridTrackerState::new();
+        self.onset = OnsetState::new();
+        self.fdiv = FdivState::new();
+        self.tdiv = TdivState::new();
+        self.have_history = false;
+        self.last_azimuth = 0.0;
+        self.diagnostics = FrameDiagnostics::default();
+        Ok(())
     }
 
     /// The configuration.

@@ -31,6 +31,16 @@ pub struct NoisyReferences {
 }
 
 impl NoisyReferences {
+    /// Clean references only (the same as `new(NoiseMixing::Off, …)`).
+    #[must_use]
+    pub const fn off() -> Self {
+        Self {
+            mixing: NoiseMixing::Off,
+            alphas: [1.0; MAX_SNR_SETS],
+            n: 1,
+        }
+    }
+
     /// Builds the sets for SNRs `from_db, from_db + step_db, …, ≤ to_db`.
     /// With [`NoiseMixing::Off`] there is one set: the clean reference.
     pub fn new(mixing: NoiseMixing, from_db: f32, to_db: f32, step_db: f32) -> Result<Self, Error> {

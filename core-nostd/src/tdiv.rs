@@ -22,6 +22,14 @@ pub struct TdivState {
     smoothed: [f32; 3],
 }
 
+impl TdivState {
+    /// Zeroed state.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self { smoothed: [0.0; 3] }
+    }
+}
+
 /// TDIV with smoothing pole `pole` (thesis: 0.9 for ≈ 50 ms frames).
 pub fn tdiv_process(
     pole: f32,
