@@ -267,19 +267,39 @@ fn run_stage_pairs<const P: usize>(
     let taps = 4 * P - 1;
     let h = taps - 1;
     let mid = taps / 2;
-    let mut n = 0;
-    let mut j = usize::from(!*odd);
-    while j < m {
-        // The window of the output completed by new input j: inputs j − h … j, oldest first.
+    let first = usize::from(!*odd);
+    let n = if m > first {
+        (m - first).div_ceil(2)
+    } else {
+        0
+    };
+    let half = n / 2;
+    let (pairs_out, tail) = out[..n].split_at_mut(2 * half);
+    // The output completed by new input j has the window buf[j..j + taps] (inputs j − h … j, oldest
+    // first). Two outputs per pass (j and j + 2): their windows share all but two of the samples
+    // they read, so the compiler loads those once (four per pass spilled registers and cost more).
+    // The arithmetic and its order are those of `halfband_step_pairs`.
+    for (i, o) in pairs_out.chunks_exact_mut(2).enumerate() {
+        let j = first + 4 * i;
+        let w = &buf[j..j + taps + 2];
+        let (mut a0, mut a1) = (0.5 * w[mid], 0.5 * w[mid + 2]);
+        for (k, c) in pairs.iter().enumerate() {
+            let off = 2 * k + 1;
+            a0 += c * (w[mid - off] + w[mid + off]);
+            a1 += c * (w[mid + 2 - off] + w[mid + 2 + off]);
+        }
+        o[0] = a0;
+        o[1] = a1;
+    }
+    if let Some(o) = tail.first_mut() {
+        let j = first + 4 * half;
         let w = &buf[j..j + taps];
         let mut acc = 0.5 * w[mid];
         for (k, c) in pairs.iter().enumerate() {
             let off = 2 * k + 1;
             acc += c * (w[mid - off] + w[mid + off]);
         }
-        out[n] = acc;
-        n += 1;
-        j += 2;
+        *o = acc;
     }
     buf.copy_within(m..m + h, 0);
     *odd ^= m % 2 == 1;
