@@ -108,21 +108,13 @@ impl CurveBuilder {
                 let dr = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
                 let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
                 // ‖d − α·r‖² is a parabola in α with its minimum at α* = d·r / ‖r‖², so the best of the
-                // ascending α_i is one of the two that bracket α*: find them by bisection on α_i·‖r‖² ≤ d·r
-                // (no division; ‖r‖² = 0 makes every α equal) and keep the smaller of the two distances.
+                // ascending α_i is one of the two that bracket α* (found by a bucket table, see
+                // `NoisyReferences::bracket`); keep the smaller of their two distances.
                 let best = if n == 1 {
                     let a = alphas[0];
                     dd + a * (a * rr - 2.0 * dr)
                 } else {
-                    let (mut lo, mut hi) = (0usize, n - 1);
-                    while hi - lo > 1 {
-                        let mid = (lo + hi) / 2;
-                        if alphas[mid] * rr <= dr {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                        }
-                    }
+                    let lo = self.noisy.bracket(dr, rr);
                     let (a, b) = (alphas[lo], alphas[lo + 1]);
                     let da = dd + a * (a * rr - 2.0 * dr);
                     let db = dd + b * (b * rr - 2.0 * dr);
