@@ -26,83 +26,80 @@ pub fn windowed_spectrum(
     out[NUM_BINS - 1] = Complex32::new(nyquist, 0.0);
 }
 
-/// A quarter frame: the length of the folded sequences of [`fold_windowed`].
-const QUARTER: usize = FRAME_LEN / 4;
+/// An eighth of a frame: the length of the folded sequences of [`fold_windowed`].
+const EIGHTH: usize = FRAME_LEN / 8;
 
-/// Windows `frame` and folds it into four sequences of [`FRAME_LEN`]/4 samples for [`dft_bins3`]:
-/// with a, b, c, d the windowed samples n, n + 128, n + 256, n + 384,
-/// `out[n] = (a + b + c + d, a − b + c − d)` and `out[128 + n] = (a − c, b − d)` for n < 128
-/// (`out[256]` is unused). Bin k of the frame is then a 128-term sum over the sequence of residue k mod 4,
-/// because e^{−j2πk·128m/512} = (−j)^{km}.
+/// Windows `frame` and folds it for [`dft_bins3`]: with x_m the windowed sample n + 64m (n < 64,
+/// m < 8), the 8-point DFT F_r(n) = Σ_m x_m·e^{−j2πrm/8} for r = 0…4 (F_{8−r} = conj F_r) is stored
+/// as `out[n] = (F_0, F_4)`, `out[64 + n] = F_2`, `out[128 + n] = F_1`, `out[192 + n] = F_3`
+/// (`out[256]` is unused). Bin k of the frame is then a 64-term sum Σ_n e^{−j2πkn/512}·F_{k mod 8}(n),
+/// because e^{−j2πk·64m/512} = e^{−j2π(k mod 8)m/8}.
 pub fn fold_windowed(frame: &[f32; FRAME_LEN], out: &mut [Complex32; NUM_BINS]) {
-    for n in 0..QUARTER {
-        let a = frame[n] * HAMMING_512[n];
-        let b = frame[n + QUARTER] * HAMMING_512[n + QUARTER];
-        let c = frame[n + 2 * QUARTER] * HAMMING_512[n + 2 * QUARTER];
-        let d = frame[n + 3 * QUARTER] * HAMMING_512[n + 3 * QUARTER];
-        let (s1, s2) = (a + c, b + d);
-        out[n] = Complex32::new(s1 + s2, s1 - s2);
-        out[QUARTER + n] = Complex32::new(a - c, b - d);
+    const C: f32 = core::f32::consts::FRAC_1_SQRT_2;
+    for n in 0..EIGHTH {
+        let x: [f32; 8] =
+            core::array::from_fn(|m| frame[n + EIGHTH * m] * HAMMING_512[n + EIGHTH * m]);
+        let a: [f32; 4] = core::array::from_fn(|m| x[m] + x[m + 4]);
+        let b: [f32; 4] = core::array::from_fn(|m| x[m] - x[m + 4]);
+        let (a02, a13) = (a[0] + a[2], a[1] + a[3]);
+        out[n] = Complex32::new(a02 + a13, a02 - a13);
+        out[EIGHTH + n] = Complex32::new(a[0] - a[2], -(a[1] - a[3]));
+        let (d, s) = (C * (b[1] - b[3]), C * (b[1] + b[3]));
+        out[2 * EIGHTH + n] = Complex32::new(b[0] + d, -(b[2] + s));
+        out[3 * EIGHTH + n] = Complex32::new(b[0] - d, b[2] - s);
     }
     out[NUM_BINS - 1] = Complex32::new(0.0, 0.0);
 }
 
-/// Σ_n f(n)·(cos, sin)(2πkn/512) over the 128 samples of one real folded sequence, for three channels.
-#[inline(always)]
-fn real_sums<const IM: bool>(folds: [&[Complex32; NUM_BINS]; 3], k: usize) -> [Complex32; 3] {
-    let mut acc = [Complex32::new(0.0, 0.0); 3];
-    let mut idx = 0usize;
-    for n in 0..QUARTER {
-        let [c, s] = TWIDDLE_512[idx];
-        idx = (idx + k) & (FRAME_LEN - 1);
-        for (a, f) in acc.iter_mut().zip(folds) {
-            let v = if IM { f[n].im } else { f[n].re };
-            a.re += v * c;
-            a.im += v * s;
-        }
-    }
-    acc
-}
-
 /// Bin k (1 ≤ k < 256) of the windowed spectrum of three channels, each folded by
 /// [`fold_windowed`]: the same value as [`windowed_spectrum`]'s bin k up to rounding (a direct sum
-/// of 128 terms with twiddles from a table; see the test for the tolerance). For the similarity
+/// of 64 terms with twiddles from a table; see the test for the tolerance). For the similarity
 /// method, which needs the cardioids only at the few picked bins.
 #[must_use]
 pub fn dft_bins3(folds: [&[Complex32; NUM_BINS]; 3], k: usize) -> [Complex32; 3] {
-    match k & 3 {
-        0 => real_sums::<false>(folds, k).map(|a| Complex32::new(a.re, -a.im)),
-        2 => real_sums::<true>(folds, k).map(|a| Complex32::new(a.re, -a.im)),
-        r => {
-            // F = (a − c) ∓ j(b − d) for k ≡ 1 / 3 (mod 4); with p = a − c, q = b − d and
-            // e^{−jθ} = cos θ − j sin θ: sums P_c = Σp·cos, P_s = Σp·sin, Q_c, Q_s.
-            let mut pc = [0.0f32; 3];
-            let mut ps = [0.0f32; 3];
-            let mut qc = [0.0f32; 3];
-            let mut qs = [0.0f32; 3];
-            let mut idx = 0usize;
-            for n in 0..QUARTER {
-                let [c, s] = TWIDDLE_512[idx];
-                idx = (idx + k) & (FRAME_LEN - 1);
-                for ch in 0..3 {
-                    let v = folds[ch][QUARTER + n];
-                    pc[ch] += v.re * c;
-                    ps[ch] += v.re * s;
-                    qc[ch] += v.im * c;
-                    qs[ch] += v.im * s;
-                }
+    let r = k & 7;
+    let mut acc = [[0.0f32; 4]; 3];
+    let mut idx = 0usize;
+    if r == 0 || r == 4 {
+        // Real sequence F_0 or F_4: Σ F·cos, Σ F·sin.
+        let im = r == 4;
+        for n in 0..EIGHTH {
+            let [c, s] = TWIDDLE_512[idx];
+            idx = (idx + k) & (FRAME_LEN - 1);
+            for ch in 0..3 {
+                let f = folds[ch][n];
+                let v = if im { f.im } else { f.re };
+                acc[ch][0] += v * c;
+                acc[ch][1] += v * s;
             }
-            core::array::from_fn(|ch| {
-                if r == 1 {
-                    // (p − jq)(cos − j sin) = p·cos − q·sin − j(p·sin + q·cos)
-                    Complex32::new(pc[ch] - qs[ch], -(ps[ch] + qc[ch]))
-                } else {
-                    // (p + jq)(cos − j sin) = p·cos + q·sin + j(q·cos − p·sin)
-                    Complex32::new(pc[ch] + qs[ch], qc[ch] - ps[ch])
-                }
-            })
+        }
+        return core::array::from_fn(|ch| Complex32::new(acc[ch][0], -acc[ch][1]));
+    }
+    // Complex sequence G = g + jh (F_r, or conj F_{8−r} for r > 4):
+    // G·(cos − j sin) = (g·cos + h·sin) + j(h·cos − g·sin).
+    let (base, sign) = match r {
+        1 => (2 * EIGHTH, 1.0f32),
+        2 => (EIGHTH, 1.0),
+        3 => (3 * EIGHTH, 1.0),
+        5 => (3 * EIGHTH, -1.0),
+        6 => (EIGHTH, -1.0),
+        _ => (2 * EIGHTH, -1.0),
+    };
+    for n in 0..EIGHTH {
+        let [c, s] = TWIDDLE_512[idx];
+        idx = (idx + k) & (FRAME_LEN - 1);
+        for ch in 0..3 {
+            let f = folds[ch][base + n];
+            acc[ch][0] += f.re * c;
+            acc[ch][1] += f.re * s;
+            acc[ch][2] += f.im * c;
+            acc[ch][3] += f.im * s;
         }
     }
+    core::array::from_fn(|ch| {
+        let [gc, gs, hc, hs] = acc[ch];
+        Complex32::new(gc + sign * hs, sign * hc - gs)
+    })
 }
 
 /// Squared magnitude of a bin.
