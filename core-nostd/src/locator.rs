@@ -97,7 +97,8 @@ impl<'t> Locator<'t> {
         input_rate: u32,
     ) -> Result<&'s mut Self, Error> {
         let locator = slot.write(Self::empty(table));
-        locator.reset_with(config, table, input_rate)?;
+        // The state of `empty` is already the initial state: only configure (no large temporaries).
+        locator.configure(config, table, input_rate)?;
         Ok(locator)
     }
 
@@ -155,6 +156,33 @@ impl<'t> Locator<'t> {
     /// and resets all of its state: afterwards it is equal to `Locator::new(config, table, input_rate)`.
     /// On error (the same checks as [`Locator::new`]) nothing is changed.
     pub fn reset_with(
+        &mut self,
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<(), Error> {
+        self.configure(config, table, input_rate)?;
+        self.scratch.fill(0.0);
+        for s in self.spectra.iter_mut() {
+            s.fill(Complex32::new(0.0, 0.0));
+        }
+        self.omni_power.fill(0.0);
+        self.peaks = Peaks::new();
+        self.curve.fill(0.0);
+        self.filter = CurveFilter::new();
+        self.tracker = GridTrackerState::new();
+        self.onset = OnsetState::new();
+        self.fdiv = FdivState::new();
+        self.tdiv = TdivState::new();
+        self.have_history = false;
+        self.last_azimuth = 0.0;
+        self.diagnostics = FrameDiagnostics::default();
+        Ok(())
+    }
+
+    /// Validates and applies the configuration and resets the front end (input guard, decimator,
+    /// framer); leaves the analysis state alone.
+    fn configure(
         &mut self,
         config: LocatorConfig,
         table: ReferenceTable<'t>,
@@ -227,21 +255,6 @@ impl<'t> Locator<'t> {
         self.bin_rows = bin_rows;
         self.offset2 = offset2;
         self.front.reset(decimator, guard);
-        self.scratch.fill(0.0);
-        for s in self.spectra.iter_mut() {
-            s.fill(Complex32::new(0.0, 0.0));
-        }
-        self.omni_power.fill(0.0);
-        self.peaks = Peaks::new();
-        self.curve.fill(0.0);
-        self.filter = CurveFilter::new();
-        self.tracker = GridTrackerState::new();
-        self.onset = OnsetState::new();
-        self.fdiv = FdivState::new();
-        self.tdiv = TdivState::new();
-        self.have_history = false;
-        self.last_azimuth = 0.0;
-        self.diagnostics = FrameDiagnostics::default();
         Ok(())
     }
 

@@ -32,9 +32,20 @@ pub async fn run(spawner: Spawner) {
         BLOCK_FRAMES
     );
 
+    let locator = init_locator();
+
+    spawner.spawn(uart_task(board.uart).unwrap());
+    spawner.spawn(dsp_task(board.audio, locator, board.watchdog).unwrap());
+}
+
+/// Builds the localizer in [`LOCATOR`]. Not inlined, so that its stack frame (≈ 3 KB of small
+/// temporaries of the in-place construction) is released before the tasks run and does not add to the
+/// main task's frame.
+#[inline(never)]
+fn init_locator() -> &'static mut Locator<'static> {
     // Note(unwrap-like panic): the default configuration and the built-in table are valid at 48 kHz;
     // a failure here is a build defect and panics at boot.
-    let locator = match Locator::init_in_place(
+    match Locator::init_in_place(
         LOCATOR.uninit(),
         LocatorConfig::default(),
         ReferenceTable::ideal_5deg(),
@@ -42,10 +53,7 @@ pub async fn run(spawner: Spawner) {
     ) {
         Ok(l) => l,
         Err(e) => defmt::panic!("localizer configuration rejected: {}", e),
-    };
-
-    spawner.spawn(uart_task(board.uart).unwrap());
-    spawner.spawn(dsp_task(board.audio, locator, board.watchdog).unwrap());
+    }
 }
 
 /// Captures blocks, runs the localizer, queues the estimates.
