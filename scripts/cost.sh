@@ -46,16 +46,16 @@ printf '| stage | instructions per hop | share |\n|---|---:|---:|\n'
 sum=0
 names=(front-end spectra peaks similarity reliability)
 descr=("input guard, ×4 decimation, framing (1024 input samples × 4 ch)"
-       "4 windowed 512-point real FFTs"
+       "omni windowed 512-point real FFT + 3 cardioid frames windowed and 8-folded"
        "omni power spectrum + peak picking"
-       "features at the peaks + similarity curve (noisy references)"
+       "cardioid DFT at the peaks, features, similarity curve (noisy references)"
        "curve variance, reliability filter, 2 × interpolated argmax")
 for i in 0 1 2 3 4; do
     c=$(per_rep $((i + 3)) 2 22)
     sum=$((sum + c))
     printf '| %s — %s | %d | %d %% |\n' "${names[$i]}" "${descr[$i]}" "$c" $((100 * c / total))
 done
-printf '| rest — frame copy, frame power, estimate assembly, call overhead | %d | %d %% |\n' \
+printf '| rest — frame power, estimate assembly, call overhead | %d | %d %% |\n' \
     $((total - sum)) $((100 * (total - sum) / total))
 printf '| **whole pipeline** | **%d** | 100 %% |\n\n' "$total"
 printf 'budget 150000 per hop (7 %% of a 100 MHz M4 at 12 kHz / 256): %s\n' \

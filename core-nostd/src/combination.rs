@@ -124,7 +124,8 @@ pub fn per_peak_estimate(
     rule: Combination,
     builder: &CurveBuilder,
     table: &ReferenceTable<'_>,
-    spectra: &[[Complex32; NUM_BINS]; CHANNELS],
+    omni: &[Complex32; NUM_BINS],
+    cardioids_at: impl Fn(usize) -> [Complex32; 3],
     peak_bins: &[u16],
     bin_rows: &[u16; NUM_BINS],
 ) -> Option<f32> {
@@ -140,12 +141,9 @@ pub fn per_peak_estimate(
         if k >= NUM_BINS {
             continue;
         }
-        let p0 = power(spectra[0][k]);
-        let pc = [
-            power(spectra[1][k]),
-            power(spectra[2][k]),
-            power(spectra[3][k]),
-        ];
+        let p0 = power(omni[k]);
+        let xc = cardioids_at(k);
+        let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
         let Some(y) = feature_from_powers(p0, pc) else {
             continue;
         };
@@ -256,7 +254,16 @@ mod tests {
             Combination::PeakCircularMean,
             Combination::PeakCircularMedian,
         ] {
-            let a = per_peak_estimate(rule, &builder, &table, &spectra, &bins, &rows).unwrap();
+            let a = per_peak_estimate(
+                rule,
+                &builder,
+                &table,
+                &spectra[0],
+                |k| [spectra[1][k], spectra[2][k], spectra[3][k]],
+                &bins,
+                &rows,
+            )
+            .unwrap();
             assert!((a - 65.0).abs() < 1.5, "{rule:?}: {a}");
         }
         assert_eq!(
@@ -264,7 +271,8 @@ mod tests {
                 Combination::MeanCurve,
                 &builder,
                 &table,
-                &spectra,
+                &spectra[0],
+                |k| [spectra[1][k], spectra[2][k], spectra[3][k]],
                 &bins,
                 &rows
             ),

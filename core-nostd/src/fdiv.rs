@@ -52,10 +52,10 @@ pub fn fdiv_process(
         sy += s[1];
         rx += i[0];
         ry += i[1];
-        mag += libm::sqrtf(s[0] * s[0] + s[1] * s[1]);
+        mag += crate::fast_math::sqrtf(s[0] * s[0] + s[1] * s[1]);
     }
     let conf = if mag > 0.0 {
-        (libm::sqrtf(sx * sx + sy * sy) / mag).clamp(0.0, 1.0)
+        (crate::fast_math::sqrtf(sx * sx + sy * sy) / mag).clamp(0.0, 1.0)
     } else {
         0.0
     };

@@ -17,7 +17,7 @@ pub fn feature_from_powers(omni_power: f32, cardioid_power: [f32; CARDIOIDS]) ->
     let inv = 1.0 / omni_power;
     let mut y = [0.0; CARDIOIDS];
     for (o, p) in y.iter_mut().zip(cardioid_power) {
-        *o = libm::sqrtf(p * inv);
+        *o = crate::fast_math::sqrtf(p * inv);
     }
     if y.iter().all(|v| v.is_finite()) {
         Some(y)

@@ -3,16 +3,14 @@
 
 use crate::{CHANNELS, FRAME_LEN, HOP};
 
-/// Ring buffer of the last [`FRAME_LEN`] sample frames of all channels.
+/// The last [`FRAME_LEN`] sample frames of all channels, oldest first, in a linear buffer: the
+/// analysis frame is read in place (no copy), and after it the newest [`HOP`] samples move to the
+/// front (one `memmove` per hop, done lazily when the next sample arrives).
 #[derive(Debug, Clone)]
 pub struct Framer {
-    ring: [[f32; FRAME_LEN]; CHANNELS],
-    /// Index where the next sample goes (also the oldest sample once full).
-    pos: usize,
-    /// Sample frames pushed so far, saturating at `FRAME_LEN` (for the first frame).
-    filled: usize,
-    /// Sample frames since the last analysis frame.
-    since_hop: usize,
+    buf: [[f32; FRAME_LEN]; CHANNELS],
+    /// Samples in `buf`; `FRAME_LEN` means a complete analysis frame waits to be read.
+    fill: usize,
     /// Analysis frames handed out so far.
     frames_out: u32,
 }
@@ -28,52 +26,89 @@ impl Framer {
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            ring: [[0.0; FRAME_LEN]; CHANNELS],
-            pos: 0,
-            filled: 0,
-            since_hop: 0,
+            buf: [[0.0; FRAME_LEN]; CHANNELS],
+            fill: 0,
             frames_out: 0,
         }
+    }
+
+    /// Empties the framer in place.
+    pub fn reset(&mut self) {
+        for ch in self.buf.iter_mut() {
+            ch.fill(0.0);
+        }
+        self.fill = 0;
+        self.frames_out = 0;
+    }
+
+    /// Drops the oldest hop after a complete frame (before new samples go in).
+    #[inline]
+    fn make_room(&mut self) {
+        if self.fill == FRAME_LEN {
+            for ch in self.buf.iter_mut() {
+                ch.copy_within(HOP.., 0);
+            }
+            self.fill = FRAME_LEN - HOP;
+        }
+    }
+
+    /// Sample frames still needed to complete the next analysis frame (1…[`FRAME_LEN`]).
+    #[must_use]
+    pub fn needed(&self) -> usize {
+        if self.fill == FRAME_LEN {
+            HOP
+        } else {
+            FRAME_LEN - self.fill
+        }
+    }
+
+    /// The free part of each channel's buffer, `needed()` samples long, for writing samples
+    /// straight into the framer; then [`Framer::commit`] the number written.
+    #[inline]
+    pub fn free_mut(&mut self) -> [&mut [f32]; CHANNELS] {
+        self.make_room();
+        let fill = self.fill;
+        self.buf.each_mut().map(|ch| &mut ch[fill..])
+    }
+
+    /// Counts `n` samples written through [`Framer::free_mut`]; returns `true` when that completes
+    /// an analysis frame.
+    #[inline]
+    pub fn commit(&mut self, n: usize) -> bool {
+        debug_assert!(self.fill + n <= FRAME_LEN);
+        self.fill += n;
+        self.fill == FRAME_LEN
     }
 
     /// Pushes one sample frame; returns `true` when a new analysis frame is complete.
     #[inline]
     pub fn push(&mut self, x: [f32; CHANNELS]) -> bool {
-        for (ch, v) in self.ring.iter_mut().zip(x) {
-            ch[self.pos] = v;
+        self.make_room();
+        for (ch, v) in self.buf.iter_mut().zip(x) {
+            ch[self.fill] = v;
         }
-        self.pos = if self.pos + 1 == FRAME_LEN {
-            0
-        } else {
-            self.pos + 1
-        };
-        if self.filled < FRAME_LEN {
-            self.filled += 1;
-            if self.filled == FRAME_LEN {
-                self.since_hop = 0;
-                return true;
-            }
-            return false;
-        }
-        self.since_hop += 1;
-        if self.since_hop == HOP {
-            self.since_hop = 0;
-            return true;
-        }
-        false
+        self.commit(1)
+    }
+
+    /// The current analysis frame, oldest sample first (valid right after `push`/`commit` returned
+    /// `true`).
+    #[must_use]
+    pub fn frame(&self) -> &[[f32; FRAME_LEN]; CHANNELS] {
+        &self.buf
+    }
+
+    /// Counts the current analysis frame and returns its index (0 for the first).
+    pub fn take_index(&mut self) -> u32 {
+        let idx = self.frames_out;
+        self.frames_out = self.frames_out.wrapping_add(1);
+        idx
     }
 
     /// Copies the current analysis frame, oldest sample first, into `out` and counts it.
     /// Returns the index of the frame (0 for the first).
     pub fn take_frame(&mut self, out: &mut [[f32; FRAME_LEN]; CHANNELS]) -> u32 {
-        for (dst, src) in out.iter_mut().zip(self.ring.iter()) {
-            let (newer, older) = src.split_at(self.pos);
-            dst[..older.len()].copy_from_slice(older);
-            dst[older.len()..].copy_from_slice(newer);
-        }
-        let idx = self.frames_out;
-        self.frames_out = self.frames_out.wrapping_add(1);
-        idx
+        out.copy_from_slice(&self.buf);
+        self.take_index()
     }
 }
 

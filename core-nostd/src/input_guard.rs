@@ -22,6 +22,17 @@ pub struct InputGuardState {
     nonfinite_hold: u32,
 }
 
+impl InputGuardState {
+    /// Both countdowns at zero.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            clip_hold: 0,
+            nonfinite_hold: 0,
+        }
+    }
+}
+
 impl InputGuard {
     /// Cleans one sample frame in place and updates the countdowns.
     #[inline]
@@ -37,6 +48,62 @@ impl InputGuard {
                 state.clip_hold = self.hold_samples;
             }
         }
+    }
+
+    /// [`InputGuard::process`] on every sample frame of `block`, writing the cleaned channels to
+    /// `out[ch][..block.len()]` (de-interleaved). The countdowns end as after the per-sample calls.
+    #[inline]
+    pub fn process_block(
+        &self,
+        state: &mut InputGuardState,
+        block: &[[f32; CHANNELS]],
+        out: [&mut [f32]; CHANNELS],
+    ) {
+        let n = block.len();
+        let [o0, o1, o2, o3] = out;
+        let (o0, o1, o2, o3) = (&mut o0[..n], &mut o1[..n], &mut o2[..n], &mut o3[..n]);
+        // Index (+1) of the last sample frame with a clipped / a non-finite value, 0 for none.
+        let mut last_clip = 0usize;
+        let mut last_nonfinite = 0usize;
+        let level = self.clip_level;
+        // |v| < level ⟺ abs_bits(v) < abs_bits(level) for level > 0 (IEEE order of non-negative
+        // floats is the order of their bits; NaN and ±Inf are above every finite level): an integer
+        // test per value for the common case. A level ≤ 0 or NaN sends every value to the exact path.
+        let limit = if level > 0.0 { level.to_bits() } else { 0 };
+        let abs_bits = |v: f32| v.to_bits() & 0x7fff_ffff;
+        for (i, x) in block.iter().enumerate() {
+            let mut x = *x;
+            let suspect = (abs_bits(x[0]) >= limit)
+                | (abs_bits(x[1]) >= limit)
+                | (abs_bits(x[2]) >= limit)
+                | (abs_bits(x[3]) >= limit);
+            if suspect {
+                for v in x.iter_mut() {
+                    if !v.is_finite() {
+                        *v = 0.0;
+                        last_nonfinite = i + 1;
+                    } else if v.abs() >= level {
+                        *v = v.clamp(-1.0, 1.0);
+                        last_clip = i + 1;
+                    }
+                }
+            }
+            o0[i] = x[0];
+            o1[i] = x[1];
+            o2[i] = x[2];
+            o3[i] = x[3];
+        }
+        // After a bad sample frame at index i the hold restarts and counts down n − 1 − i times.
+        let count = |hold: u32, last: usize| -> u32 {
+            let n = n as u32;
+            if last == 0 {
+                hold.saturating_sub(n)
+            } else {
+                self.hold_samples.saturating_sub(n - last as u32)
+            }
+        };
+        state.clip_hold = count(state.clip_hold, last_clip);
+        state.nonfinite_hold = count(state.nonfinite_hold, last_nonfinite);
     }
 
     /// Flags for the analysis frame that ends now.
@@ -72,5 +139,47 @@ mod tests {
             g.process(&mut s, &mut [0.0; 4]);
         }
         assert!(g.flags(&s).is_empty());
+    }
+
+    #[test]
+    fn block_equals_per_sample() {
+        let g = InputGuard {
+            clip_level: 0.99,
+            hold_samples: 5,
+        };
+        let mut x = [[0.1f32; CHANNELS]; 12];
+        x[2][1] = f32::NAN;
+        x[4][3] = 1.5;
+        x[9][0] = f32::NEG_INFINITY;
+        x[10][2] = -0.995;
+        for split in 1..12 {
+            let (mut a, mut b) = (InputGuardState::default(), InputGuardState::default());
+            let mut outs = [[0.0f32; 12]; CHANNELS];
+            for (c, chunk) in x.chunks(split).enumerate() {
+                let [o0, o1, o2, o3] = &mut outs;
+                let r = c * split..c * split + chunk.len();
+                g.process_block(
+                    &mut b,
+                    chunk,
+                    [
+                        &mut o0[r.clone()],
+                        &mut o1[r.clone()],
+                        &mut o2[r.clone()],
+                        &mut o3[r],
+                    ],
+                );
+                for (j, v) in chunk.iter().enumerate() {
+                    let mut v = *v;
+                    g.process(&mut a, &mut v);
+                    for ch in 0..CHANNELS {
+                        assert_eq!(outs[ch][c * split + j].to_bits(), v[ch].to_bits());
+                    }
+                }
+                assert_eq!(
+                    (a.clip_hold, a.nonfinite_hold),
+                    (b.clip_hold, b.nonfinite_hold)
+                );
+            }
+        }
     }
 }

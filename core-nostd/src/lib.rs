@@ -7,8 +7,10 @@
 //! The pipeline, one module per stage:
 //!
 //! 1. [`decimator`] — half-band anti-alias cascade, 48 kHz → 12 kHz (44.1 → 11.025, 16 kHz passes);
-//! 2. [`framer`] — 512-sample analysis frames with a hop of 256;
-//! 3. [`spectrum`] — Hamming window from a table, `microfft` real FFT, Nyquist bin unpacked;
+//! 2. [`framer`] — 512-sample analysis frames with a hop of 256 ([`front_end`] runs the input guard,
+//!    the decimator and the framer block by block);
+//! 3. [`spectrum`] — Hamming window from a table, `microfft` real FFT, Nyquist bin unpacked; for the
+//!    similarity method the cardioids only at the picked bins (folded frame + direct DFT);
 //! 4. [`peak_picker`] — the N_p strongest peaks of |X_omni| in a band (thesis §5.1.2, with the fill rule);
 //! 5. [`features`] — |X_card| / |X_omni| at the peaks (eq. 5.7);
 //! 6. [`reference_table`] — reference features in flash (ideal model or measured, per frequency);
@@ -44,10 +46,12 @@ pub mod distance;
 pub mod embedded_table;
 pub mod error;
 pub mod estimate;
+pub mod fast_math;
 pub mod fdiv;
 pub mod features;
 pub mod frame_quality;
 pub mod framer;
+pub mod front_end;
 pub mod grid_tracker;
 pub mod input_guard;
 pub mod interpolation;

@@ -14,24 +14,25 @@ use crate::angle::wrap_deg;
 use crate::cartesian_filter::{CartesianFilter, Smoothing};
 use crate::combination::{fdiv_bin_spread, per_peak_estimate, Combination};
 use crate::config::{LocatorConfig, Method, Tracking};
-use crate::decimator::{Decimator, DecimatorState};
+use crate::decimator::Decimator;
 use crate::direct_sound::{DirectSound, OnsetState};
 use crate::error::Error;
 use crate::estimate::{Estimate, Flags};
 use crate::fdiv::{fdiv_process, FdivState};
 use crate::features::feature_from_powers;
-use crate::framer::Framer;
+use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
-use crate::input_guard::{InputGuard, InputGuardState};
+use crate::input_guard::InputGuard;
 use crate::interpolation::{argmax_parabolic, argmax_parabolic_mapped};
 use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance, CurveFilter};
 use crate::similarity::CurveBuilder;
-use crate::spectrum::{power, windowed_spectrum};
+use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
+use core::mem::MaybeUninit;
 use microfft::Complex32;
 
 /// Per-frame diagnostics of the similarity method, for plots and studies (not needed to localize).
@@ -45,12 +46,11 @@ pub struct FrameDiagnostics {
     pub mean_peak_weight: f32,
 }
 
-/// The localizer and all of its state (≈ 33 KB; place it in a `static` on the target).
+/// The localizer and all of its state (≈ 31 KB; build it in place on the target: [`Locator::init_in_place`]).
 pub struct Locator<'t> {
     config: LocatorConfig,
     table: ReferenceTable<'t>,
     decimator: Decimator,
-    guard: InputGuard,
     picker: PeakPicker,
     curves: CurveBuilder,
     /// Frequency row of the reference table for each bin.
@@ -58,10 +58,8 @@ pub struct Locator<'t> {
     /// Twice the decimator's time offset in input samples.
     offset2: i64,
 
-    guard_state: InputGuardState,
-    dec_state: [DecimatorState; CHANNELS],
-    framer: Framer,
-    frame: [[f32; FRAME_LEN]; CHANNELS],
+    /// Input guard, decimator and framer (the analysis frame is read in place from it).
+    front: FrontEnd,
     scratch: [f32; FRAME_LEN],
     spectra: [[Complex32; NUM_BINS]; CHANNELS],
     omni_power: [f32; NUM_BINS],
@@ -81,11 +79,121 @@ pub struct Locator<'t> {
 
 impl<'t> Locator<'t> {
     /// A localizer for input at `input_rate` Hz with `config` and reference `table`.
+    ///
+    /// The value is ≈ 31 KB: on a microcontroller build it in place instead
+    /// ([`Locator::init_in_place`], or [`Locator::empty`] in a `static` plus [`Locator::reset_with`]).
     pub fn new(
         config: LocatorConfig,
         table: ReferenceTable<'t>,
         input_rate: u32,
     ) -> Result<Self, Error> {
+        let mut locator = Self::empty(table);
+        locator.reset_with(config, table, input_rate)?;
+        Ok(locator)
+    }
+
+    /// Builds the localizer [`Locator::new`] returns directly in `slot` (no temporary on the stack),
+    /// e.g. in a `StaticCell::uninit()`. On error `slot` holds [`Locator::empty`].
+    pub fn init_in_place<'s>(
+        slot: &'s mut MaybeUninit<Self>,
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<&'s mut Self, Error> {
+        let locator = slot.write(Self::empty(table));
+        // The state of `empty` is already the initial state: only configure (no large temporaries).
+        locator.configure(config, table, input_rate)?;
+        Ok(locator)
+    }
+
+    /// An unconfigured localizer with zeroed state (the thesis configuration at 12 kHz without
+    /// decimation and without noisy references): a constant, for a `static`. Configure it with
+    /// [`Locator::reset_with`] before use.
+    #[must_use]
+    pub const fn empty(table: ReferenceTable<'t>) -> Self {
+        Self {
+            config: LocatorConfig::thesis(),
+            table,
+            decimator: Decimator::passthrough(),
+            picker: PeakPicker {
+                lo_bin: 1,
+                hi_bin: NUM_BINS - 2,
+                num_peaks: 1,
+                min_power: 0.0,
+                fill: false,
+            },
+            curves: CurveBuilder {
+                measure: crate::similarity::SimilarityMeasure::Euclidean,
+                noisy: NoisyReferences::off(),
+                mean_free: false,
+            },
+            bin_rows: [0; NUM_BINS],
+            offset2: 0,
+            front: FrontEnd::new(
+                Decimator::passthrough(),
+                InputGuard {
+                    clip_level: 1.0,
+                    hold_samples: 0,
+                },
+            ),
+            scratch: [0.0; FRAME_LEN],
+            spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
+            omni_power: [0.0; NUM_BINS],
+            peaks: Peaks::new(),
+            curve: [0.0; MAX_AZIMUTHS],
+            filter: CurveFilter::new(),
+            tracker: GridTrackerState::new(),
+            onset: OnsetState::new(),
+            fdiv: FdivState::new(),
+            tdiv: TdivState::new(),
+            cartesian: CartesianFilter::new(),
+            have_history: false,
+            last_azimuth: 0.0,
+            diagnostics: FrameDiagnostics {
+                curve_variance: 0.0,
+                num_peaks: 0,
+                mean_peak_weight: 0.0,
+            },
+        }
+    }
+
+    /// Reconfigures the localizer in place for input at `input_rate` Hz with `config` and `table`,
+    /// and resets all of its state: afterwards it is equal to `Locator::new(config, table, input_rate)`.
+    /// On error (the same checks as [`Locator::new`]) nothing is changed.
+    pub fn reset_with(
+        &mut self,
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<(), Error> {
+        self.configure(config, table, input_rate)?;
+        self.scratch.fill(0.0);
+        for s in self.spectra.iter_mut() {
+            s.fill(Complex32::new(0.0, 0.0));
+        }
+        self.omni_power.fill(0.0);
+        self.peaks = Peaks::new();
+        self.curve.fill(0.0);
+        self.filter = CurveFilter::new();
+        self.tracker = GridTrackerState::new();
+        self.onset = OnsetState::new();
+        self.fdiv = FdivState::new();
+        self.tdiv = TdivState::new();
+        self.cartesian = CartesianFilter::new();
+        self.have_history = false;
+        self.last_azimuth = 0.0;
+        self.diagnostics = FrameDiagnostics::default();
+        Ok(())
+    }
+
+    /// Validates and applies the configuration and resets the front end (input guard, decimator,
+    /// framer); leaves the analysis state alone.
+    fn configure(
+        &mut self,
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        input_rate: u32,
+    ) -> Result<(), Error> {
         let decimator = Decimator::for_rate(input_rate)?;
         let fs = decimator.output_rate() as f32;
         let c = &config;
@@ -150,37 +258,20 @@ impl<'t> Locator<'t> {
         }
         let factor = decimator.factor();
         let hold = (FRAME_LEN as u32 + 64) * factor;
-        Ok(Self {
-            config,
-            table,
-            decimator,
-            guard: InputGuard {
-                clip_level: c.clip_level,
-                hold_samples: hold,
-            },
-            picker,
-            curves,
-            bin_rows,
-            offset2: libm::round(2.0 * decimator.time_offset()) as i64,
-            guard_state: InputGuardState::default(),
-            dec_state: [DecimatorState::new(); CHANNELS],
-            framer: Framer::new(),
-            frame: [[0.0; FRAME_LEN]; CHANNELS],
-            scratch: [0.0; FRAME_LEN],
-            spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
-            omni_power: [0.0; NUM_BINS],
-            peaks: Peaks::default(),
-            curve: [0.0; MAX_AZIMUTHS],
-            filter: CurveFilter::new(),
-            tracker: GridTrackerState::new(),
-            onset: OnsetState::new(),
-            fdiv: FdivState::new(),
-            tdiv: TdivState::default(),
-            have_history: false,
-            last_azimuth: 0.0,
-            diagnostics: FrameDiagnostics::default(),
-            cartesian: CartesianFilter::new(),
-        })
+        let offset2 = libm::round(2.0 * decimator.time_offset()) as i64;
+        let guard = InputGuard {
+            clip_level: c.clip_level,
+            hold_samples: hold,
+        };
+        self.config = config;
+        self.table = table;
+        self.decimator = decimator;
+        self.picker = picker;
+        self.curves = curves;
+        self.bin_rows = bin_rows;
+        self.offset2 = offset2;
+        self.front.reset(decimator, guard);
+        Ok(())
     }
 
     /// The configuration.
@@ -238,26 +329,20 @@ impl<'t> Locator<'t> {
         block: &[[f32; CHANNELS]],
         mut on_estimate: impl FnMut(&Estimate),
     ) {
-        for x in block {
-            if let Some(e) = self.process_sample(*x) {
-                on_estimate(&e);
+        let mut rest = block;
+        while !rest.is_empty() {
+            let (used, ready) = self.front.feed(rest);
+            rest = &rest[used..];
+            if ready {
+                on_estimate(&self.analyze());
             }
         }
     }
 
     /// Feeds one sample frame; returns an estimate when it completes an analysis frame.
     #[inline]
-    pub fn process_sample(&mut self, mut x: [f32; CHANNELS]) -> Option<Estimate> {
-        self.guard.process(&mut self.guard_state, &mut x);
-        let mut y = [0.0f32; CHANNELS];
-        let mut ready = false;
-        for ((out, st), v) in y.iter_mut().zip(self.dec_state.iter_mut()).zip(x) {
-            if let Some(s) = self.decimator.process(st, v) {
-                *out = s;
-                ready = true;
-            }
-        }
-        if ready && self.framer.push(y) {
+    pub fn process_sample(&mut self, x: [f32; CHANNELS]) -> Option<Estimate> {
+        if self.front.feed(core::slice::from_ref(&x)).1 {
             Some(self.analyze())
         } else {
             None
@@ -265,9 +350,10 @@ impl<'t> Locator<'t> {
     }
 
     fn analyze(&mut self) -> Estimate {
-        let index = self.framer.take_frame(&mut self.frame);
-        let mut flags = self.guard.flags(&self.guard_state);
-        let frame_power = self.frame[0].iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
+        let index = self.front.take_index();
+        let mut flags = self.front.flags();
+        let frame_power =
+            self.front.frame()[0].iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
         if !(frame_power >= self.config.silence_power) {
             flags.insert(Flags::SILENT);
         }
@@ -311,10 +397,14 @@ impl<'t> Locator<'t> {
             };
         }
         let iv = if self.config.method == Method::Tdiv {
-            tdiv_process(self.config.tdiv_pole, &mut self.tdiv, &self.frame)
+            tdiv_process(self.config.tdiv_pole, &mut self.tdiv, self.front.frame())
         } else {
             for ch in 0..CHANNELS {
-                windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
+                windowed_spectrum(
+                    &self.front.frame()[ch],
+                    &mut self.scratch,
+                    &mut self.spectra[ch],
+                );
             }
             fdiv_process(
                 self.config.fdiv_pole,
@@ -338,8 +428,15 @@ impl<'t> Locator<'t> {
     fn similarity_frame(&mut self, gate: f32, flags: &mut Flags) -> (f32, f32, f32) {
         let q = self.table.num_azimuths();
         let fs = self.decimator.output_rate() as f32;
-        for ch in 0..CHANNELS {
-            windowed_spectrum(&self.frame[ch], &mut self.scratch, &mut self.spectra[ch]);
+        windowed_spectrum(
+            &self.front.frame()[0],
+            &mut self.scratch,
+            &mut self.spectra[0],
+        );
+        // The cardioids are needed only at the picked bins: `spectra[1..]` hold their folded frames
+        // for the direct DFT there (`dft_bins3`) instead of full spectra.
+        for ch in 1..CHANNELS {
+            fold_windowed(&self.front.frame()[ch], &mut self.spectra[ch]);
         }
         for (p, c) in self.omni_power.iter_mut().zip(self.spectra[0].iter()) {
             *p = power(*c);
@@ -354,19 +451,14 @@ impl<'t> Locator<'t> {
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
             let p0 = self.omni_power[k];
-            let pc = [
-                power(self.spectra[1][k]),
-                power(self.spectra[2][k]),
-                power(self.spectra[3][k]),
-            ];
+            let [_, f1, f2, f3] = &self.spectra;
+            let xc = dft_bins3([f1, f2, f3], k);
+            let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
             let Some(y) = feature_from_powers(p0, pc) else {
                 continue;
             };
             let w = if ds.enabled() {
-                let delta = DirectSound::directness(
-                    self.spectra[0][k],
-                    [self.spectra[1][k], self.spectra[2][k], self.spectra[3][k]],
-                );
+                let delta = DirectSound::directness(self.spectra[0][k], xc);
                 ds.peak_weight(&self.onset, k, p0, delta)
             } else {
                 1.0
@@ -403,7 +495,7 @@ impl<'t> Locator<'t> {
                     * self.config.quality.coefficient(
                         &self.config.reliability,
                         variance,
-                        &self.frame[0],
+                        &self.front.frame()[0],
                         fs,
                         &self.omni_power,
                         self.peaks.bins(),
@@ -475,11 +567,13 @@ impl<'t> Locator<'t> {
         let raw = if self.config.combination == Combination::MeanCurve {
             raw
         } else if raw.is_some() {
+            let [omni, f1, f2, f3] = &self.spectra;
             per_peak_estimate(
                 self.config.combination,
                 &self.curves,
                 &self.table,
-                &self.spectra,
+                omni,
+                |k| dft_bins3([f1, f2, f3], k),
                 self.peaks.bins(),
                 &self.bin_rows,
             )

@@ -28,17 +28,33 @@ pub struct NoisyReferences {
     /// Weight α_i of the clean feature per set.
     alphas: [f32; MAX_SNR_SETS],
     n: usize,
+    /// For α in bucket b = ⌊α·[`LUT_LEN`]⌋ (α clamped to [0, 1)): the largest i ≤ n − 2 with
+    /// α_i < b/[`LUT_LEN`] (0 if none), valid when `lut_ok` (no bucket holds two α_i).
+    lut: [u8; LUT_LEN],
+    lut_ok: bool,
 }
 
+/// Buckets of the bracket table of [`NoisyReferences::bracket`].
+const LUT_LEN: usize = 128;
+
 impl NoisyReferences {
+    /// Clean references only (the same as `new(NoiseMixing::Off, …)`).
+    #[must_use]
+    pub const fn off() -> Self {
+        Self {
+            mixing: NoiseMixing::Off,
+            alphas: [1.0; MAX_SNR_SETS],
+            n: 1,
+            lut: [0; LUT_LEN],
+            lut_ok: false,
+        }
+    }
+
     /// Builds the sets for SNRs `from_db, from_db + step_db, …, ≤ to_db`.
     /// With [`NoiseMixing::Off`] there is one set: the clean reference.
     pub fn new(mixing: NoiseMixing, from_db: f32, to_db: f32, step_db: f32) -> Result<Self, Error> {
-        let mut s = Self {
-            mixing,
-            alphas: [1.0; MAX_SNR_SETS],
-            n: 1,
-        };
+        let mut s = Self::off();
+        s.mixing = mixing;
         if mixing == NoiseMixing::Off {
             return Ok(s);
         }
@@ -61,7 +77,54 @@ impl NoisyReferences {
             };
         }
         s.n = count;
+        s.build_lut();
         Ok(s)
+    }
+
+    fn build_lut(&mut self) {
+        let n = self.n;
+        if n < 2 {
+            return;
+        }
+        let a = &self.alphas[..n];
+        let ascending = a.windows(2).all(|w| w[0] < w[1]);
+        let spaced = a.windows(2).all(|w| w[1] - w[0] > 1.0 / LUT_LEN as f32);
+        self.lut_ok = ascending && spaced;
+        for (b, e) in self.lut.iter_mut().enumerate() {
+            let start = b as f32 / LUT_LEN as f32;
+            *e = a[..n - 1].iter().rposition(|x| *x < start).unwrap_or(0) as u8;
+        }
+    }
+
+    /// For the weight α* = `dr / rr` of the unconstrained best mix, the index i ≤ n − 2 such that
+    /// α_i and α_{i+1} bracket α* (0 below α_0, n − 2 above α_{n−1}); needs n ≥ 2 ascending α_i.
+    /// `dr`, `rr` as in [`crate::similarity::CurveBuilder::accumulate`]; `rr = 0` gives any valid index.
+    #[inline]
+    #[must_use]
+    pub fn bracket(&self, dr: f32, rr: f32) -> usize {
+        let n = self.n;
+        if self.lut_ok {
+            let t = dr / rr;
+            // `as` saturates (NaN → 0), so every t lands in a bucket.
+            let b = ((t * LUT_LEN as f32) as usize).min(LUT_LEN - 1);
+            let lo = self.lut[b] as usize;
+            if lo + 2 < n && self.alphas[lo + 1] <= t {
+                lo + 1
+            } else {
+                lo
+            }
+        } else {
+            let (mut lo, mut hi) = (0usize, n - 1);
+            while hi - lo > 1 {
+                let mid = (lo + hi) / 2;
+                if self.alphas[mid] * rr <= dr {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
+        }
     }
 
     /// The mixing rule.

@@ -31,6 +31,19 @@ pub struct Peaks {
     pub n_maxima: usize,
 }
 
+impl Peaks {
+    /// No peaks.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            bins: [0; MAX_PEAKS],
+            power: [0.0; MAX_PEAKS],
+            len: 0,
+            n_maxima: 0,
+        }
+    }
+}
+
 impl Default for Peaks {
     fn default() -> Self {
         Self {

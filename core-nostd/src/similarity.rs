@@ -1,6 +1,7 @@
 //! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
+use crate::fast_math::sqrtf;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::reference_table::{Feature, ReferenceTable};
 
@@ -72,7 +73,9 @@ impl CurveBuilder {
     /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed
     /// references lie on the segment between Y_ref(q) and Y_η, so
     /// ‖y − Y_i‖² = ‖d‖² − 2α_i·d·r + α_i²·‖r‖² with d = y − Y_η, r = Y_ref(q) − Y_η, and only the
-    /// smallest distance needs a square root. It equals the direct evaluation up to rounding.
+    /// smallest distance needs a square root. That distance is a parabola in α_i, so only the two α_i
+    /// bracketing its vertex are evaluated (the α_i ascend: [`NoisyReferences`] builds them from ascending
+    /// SNRs). It equals the direct evaluation up to rounding.
     pub fn accumulate(
         &self,
         table: &ReferenceTable<'_>,
@@ -95,6 +98,7 @@ impl CurveBuilder {
             ];
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let alphas = self.noisy.alphas();
+            let n = alphas.len();
             for (c, r) in curve.iter_mut().zip(row) {
                 let r = [
                     r[0] - noise_mag[0],
@@ -103,14 +107,26 @@ impl CurveBuilder {
                 ];
                 let dr = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
                 let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-                let mut best = f32::INFINITY;
-                for a in alphas {
-                    let d2 = dd + a * (a * rr - 2.0 * dr);
-                    if d2 < best {
-                        best = d2;
+                // ‖d − α·r‖² is a parabola in α with its minimum at α* = d·r / ‖r‖², so the best of the
+                // ascending α_i is one of the two that bracket α* (found by a bucket table, see
+                // `NoisyReferences::bracket`); keep the smaller of their two distances.
+                let best = if n == 1 {
+                    let a = alphas[0];
+                    dd + a * (a * rr - 2.0 * dr)
+                } else {
+                    let lo = self.noisy.bracket(dr, rr);
+                    let (a, b) = (alphas[lo], alphas[lo + 1]);
+                    let da = dd + a * (a * rr - 2.0 * dr);
+                    let db = dd + b * (b * rr - 2.0 * dr);
+                    if db < da {
+                        db
+                    } else {
+                        da
                     }
-                }
-                *c += weight / (1.0 + libm::sqrtf(best.max(0.0)));
+                };
+                // `if` rather than `f32::max`, which is a library call on the Cortex-M4F.
+                let best = if best > 0.0 { best } else { 0.0 };
+                *c += weight / (1.0 + sqrtf(best));
             }
             return;
         }
@@ -169,12 +185,19 @@ mod tests {
                 noisy: NoisyReferences::new(mixing, -30.0, 40.0, 10.0).unwrap(),
                 mean_free: false,
             };
-            for y in [
+            let mut ys = [[0.0f32; 3]; 204];
+            ys[..4].copy_from_slice(&[
                 [0.9, 0.3, 0.2],
                 [0.5, 0.5, 0.5],
                 [0.0, 1.2, 0.1],
                 [2.0, 0.0, 0.0],
-            ] {
+            ]);
+            let mut seed = 99u32;
+            for y in ys[4..].iter_mut().flatten() {
+                seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                *y = (seed >> 8) as f32 / (1u32 << 24) as f32 * 1.5;
+            }
+            for y in ys {
                 let mut fast = [0.0f32; 72];
                 b.accumulate(&table, 0, y, 1.0, &mut fast);
                 for (q, r) in table.row(0).iter().enumerate() {

@@ -22,6 +22,14 @@ pub struct TdivState {
     smoothed: [f32; 3],
 }
 
+impl TdivState {
+    /// Zeroed state.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self { smoothed: [0.0; 3] }
+    }
+}
+
 /// TDIV with smoothing pole `pole` (thesis: 0.9 for ≈ 50 ms frames).
 pub fn tdiv_process(
     pole: f32,
@@ -31,7 +39,7 @@ pub fn tdiv_process(
     let mut rms = [0.0f32; 3];
     for (r, ch) in rms.iter_mut().zip(frame[1..].iter()) {
         let p: f32 = ch.iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
-        *r = libm::sqrtf(p);
+        *r = crate::fast_math::sqrtf(p);
     }
     let b = wxy_real(rms);
     for (s, v) in state.smoothed.iter_mut().zip(b) {
@@ -39,7 +47,7 @@ pub fn tdiv_process(
     }
     let [w, x, y] = state.smoothed;
     let conf = if w > 0.0 {
-        (libm::sqrtf(x * x + y * y) / w).clamp(0.0, 1.0)
+        (crate::fast_math::sqrtf(x * x + y * y) / w).clamp(0.0, 1.0)
     } else {
         0.0
     };

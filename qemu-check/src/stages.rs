@@ -4,16 +4,16 @@
 //! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at 48 kHz.
 
 use crate::scene::{Scene, HOP_SAMPLES};
-use cma_core::decimator::{Decimator, DecimatorState};
+use cma_core::decimator::Decimator;
 use cma_core::features::feature_from_powers;
-use cma_core::framer::Framer;
-use cma_core::input_guard::{InputGuard, InputGuardState};
+use cma_core::front_end::FrontEnd;
+use cma_core::input_guard::InputGuard;
 use cma_core::interpolation::argmax_parabolic;
 use cma_core::noisy_reference::NoisyReferences;
 use cma_core::peak_picker::{PeakPicker, Peaks};
 use cma_core::reliability::{curve_variance, CurveFilter};
 use cma_core::similarity::CurveBuilder;
-use cma_core::spectrum::{power, windowed_spectrum};
+use cma_core::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use cma_core::{LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, NUM_BINS};
 use core::hint::black_box;
 use microfft::Complex32;
@@ -23,11 +23,12 @@ use microfft::Complex32;
 pub enum Stage {
     /// Input guard, ×4 decimation of four channels and framing of one hop (1024 input samples).
     FrontEnd,
-    /// The four windowed FFTs.
+    /// The omni's windowed FFT and the cardioids' windowed, folded frames.
     Spectra,
     /// Omni power spectrum and peak picking.
     Peaks,
-    /// Features at the peaks and the similarity curve against the noisy references.
+    /// The cardioids' DFT at the peaks, the features and the similarity curve against the noisy
+    /// references.
     Similarity,
     /// Curve variance, reliability filter and the two interpolated argmax.
     Reliability,
@@ -78,11 +79,7 @@ pub struct Bench {
     peaks: Peaks,
     curve: [f32; MAX_AZIMUTHS],
     filter: CurveFilter,
-    framer: Framer,
-    dec: Decimator,
-    dec_state: [DecimatorState; CHANNELS],
-    guard: InputGuard,
-    guard_state: InputGuardState,
+    front: FrontEnd,
     picker: PeakPicker,
     curves: CurveBuilder,
     table: ReferenceTable<'static>,
@@ -108,14 +105,13 @@ impl Bench {
             peaks: Peaks::default(),
             curve: [0.0; MAX_AZIMUTHS],
             filter: CurveFilter::new(),
-            framer: Framer::new(),
-            dec,
-            dec_state: [DecimatorState::new(); CHANNELS],
-            guard: InputGuard {
-                clip_level: c.clip_level,
-                hold_samples: 4 * (FRAME_LEN as u32 + 64),
-            },
-            guard_state: InputGuardState::default(),
+            front: FrontEnd::new(
+                dec,
+                InputGuard {
+                    clip_level: c.clip_level,
+                    hold_samples: 4 * (FRAME_LEN as u32 + 64),
+                },
+            ),
             picker: PeakPicker {
                 lo_bin: bin_of(c.band_lo_hz).max(1),
                 hi_bin: bin_of(c.band_hi_hz).min(NUM_BINS - 2),
@@ -141,7 +137,7 @@ impl Bench {
             scene.fill(&mut b.input);
             b.front_end();
         }
-        b.framer.take_frame(&mut b.frame);
+        b.frame.copy_from_slice(b.front.frame());
         b.spectra();
         b.peaks();
         b.similarity();
@@ -160,30 +156,22 @@ impl Bench {
     }
 
     fn front_end(&mut self) {
-        for x in black_box(&self.input).iter() {
-            let mut x = *x;
-            self.guard.process(&mut self.guard_state, &mut x);
-            let mut y = [0.0f32; CHANNELS];
-            let mut ready = false;
-            for ((out, st), v) in y.iter_mut().zip(self.dec_state.iter_mut()).zip(x) {
-                if let Some(s) = self.dec.process(st, v) {
-                    *out = s;
-                    ready = true;
-                }
-            }
-            if ready {
-                black_box(self.framer.push(y));
-            }
+        let mut rest = &black_box(&self.input)[..];
+        while !rest.is_empty() {
+            let (used, ready) = self.front.feed(rest);
+            black_box(ready);
+            rest = &rest[used..];
         }
     }
 
     fn spectra(&mut self) {
-        for ch in 0..CHANNELS {
-            windowed_spectrum(
-                black_box(&self.frame[ch]),
-                &mut self.scratch,
-                &mut self.spectra[ch],
-            );
+        windowed_spectrum(
+            black_box(&self.frame[0]),
+            &mut self.scratch,
+            &mut self.spectra[0],
+        );
+        for ch in 1..CHANNELS {
+            fold_windowed(black_box(&self.frame[ch]), &mut self.spectra[ch]);
         }
     }
 
@@ -205,8 +193,9 @@ impl Bench {
         let mut weight_sum = 0.0f32;
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
-            let s = black_box(&self.spectra);
-            let pc = [power(s[1][k]), power(s[2][k]), power(s[3][k])];
+            let [_, f1, f2, f3] = black_box(&self.spectra);
+            let xc = dft_bins3([f1, f2, f3], k);
+            let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
             let Some(y) = feature_from_powers(self.omni_power[k], pc) else {
                 continue;
             };

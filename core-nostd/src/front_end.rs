@@ -1,0 +1,178 @@
+//! The front end of the localizer: input guard, decimation and framing, block by block.
+//!
+//! [`FrontEnd::feed`] takes up to [`PIECE`] sample frames at a time, never past the sample that
+//! completes an analysis frame, so an analysis can run between two calls exactly where the per-sample
+//! pipeline would run it. Within a piece it cleans and de-interleaves the four channels
+//! ([`InputGuard::process_block`]), runs each half-band stage over the whole piece per channel
+//! ([`BlockDecimator`]) and writes the last stage's outputs straight into the [`Framer`]. The result
+//! does not depend on how the input is split into blocks.
+
+use crate::decimator::{BlockDecimator, Decimator, PIECE};
+use crate::estimate::Flags;
+use crate::framer::Framer;
+use crate::input_guard::{InputGuard, InputGuardState};
+use crate::{CHANNELS, FRAME_LEN};
+
+/// Guard, decimator and framer with their state.
+#[derive(Debug, Clone)]
+pub struct FrontEnd {
+    guard: InputGuard,
+    guard_state: InputGuardState,
+    decimator: Decimator,
+    lines: BlockDecimator,
+    /// Input sample frames so far, modulo the decimation factor.
+    phase: usize,
+    framer: Framer,
+}
+
+impl FrontEnd {
+    /// A front end for `decimator` and `guard`, all state zeroed.
+    #[must_use]
+    pub const fn new(decimator: Decimator, guard: InputGuard) -> Self {
+        Self {
+            guard,
+            guard_state: InputGuardState::new(),
+            decimator,
+            lines: BlockDecimator::new(),
+            phase: 0,
+            framer: Framer::new(),
+        }
+    }
+
+    /// Reconfigures in place and zeroes all state.
+    pub fn reset(&mut self, decimator: Decimator, guard: InputGuard) {
+        self.guard = guard;
+        self.guard_state = InputGuardState::new();
+        self.decimator = decimator;
+        self.lines.reset();
+        self.phase = 0;
+        self.framer.reset();
+    }
+
+    /// The decimator's configuration.
+    #[must_use]
+    pub fn decimator(&self) -> &Decimator {
+        &self.decimator
+    }
+
+    /// Consumes sample frames from the start of `block`, at most up to the one that completes an
+    /// analysis frame; returns how many it consumed and whether an analysis frame is now complete
+    /// (then read it with [`FrontEnd::frame`] before the next call).
+    pub fn feed(&mut self, block: &[[f32; CHANNELS]]) -> (usize, bool) {
+        let factor = self.decimator.factor() as usize;
+        let to_frame = self.framer.needed() * factor - self.phase;
+        let len = block.len().min(to_frame).min(PIECE);
+        if len == 0 {
+            return (0, false);
+        }
+        let block = &block[..len];
+        let produced = if factor == 1 {
+            let free = self.framer.free_mut();
+            self.guard.process_block(&mut self.guard_state, block, free);
+            len
+        } else {
+            let input = self.lines.input_mut(&self.decimator);
+            self.guard
+                .process_block(&mut self.guard_state, block, input);
+            let free = self.framer.free_mut();
+            self.lines.run(&self.decimator, len, free)
+        };
+        self.phase = (self.phase + len) % factor;
+        (len, self.framer.commit(produced))
+    }
+
+    /// The complete analysis frame, oldest sample first (after [`FrontEnd::feed`] said so).
+    #[must_use]
+    pub fn frame(&self) -> &[[f32; FRAME_LEN]; CHANNELS] {
+        self.framer.frame()
+    }
+
+    /// Counts the analysis frame and returns its index (0 for the first).
+    pub fn take_index(&mut self) -> u32 {
+        self.framer.take_index()
+    }
+
+    /// The input guard's flags for the analysis frame that ends now.
+    #[must_use]
+    pub fn flags(&self) -> Flags {
+        self.guard.flags(&self.guard_state)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::decimator::DecimatorState;
+
+    fn signal(n: usize) -> [f32; CHANNELS] {
+        let t = n as f32;
+        let mut x = [
+            libm::sinf(0.01 * t),
+            libm::sinf(0.37 * t + 1.0),
+            libm::cosf(1.3 * t),
+            ((n * 7919) % 1000) as f32 / 500.0 - 1.0,
+        ];
+        if n == 3001 {
+            x[1] = f32::NAN;
+        }
+        if n == 5003 {
+            x[2] = 3.0;
+        }
+        x
+    }
+
+    /// The block front end equals the per-sample guard → decimator → framer, for every rate and split.
+    #[test]
+    fn equals_per_sample_pipeline_for_any_split() {
+        let guard = InputGuard {
+            clip_level: 0.999,
+            hold_samples: 700,
+        };
+        for rate in [12_000u32, 24_000, 48_000, 96_000] {
+            let d = Decimator::for_rate(rate).unwrap();
+            let n_in = 3 * FRAME_LEN * d.factor() as usize + 37;
+            for split in [1usize, 3, 7, 64, 100, 1024] {
+                let mut fe = FrontEnd::new(d, guard);
+                let mut gs = InputGuardState::new();
+                let mut ds = [DecimatorState::new(); CHANNELS];
+                let mut framer = Framer::new();
+                let mut frames = 0;
+                let mut n = 0;
+                while n < n_in {
+                    let chunk: [[f32; CHANNELS]; 1024] = core::array::from_fn(|i| signal(n + i));
+                    let mut rest = &chunk[..split.min(n_in - n)];
+                    while !rest.is_empty() {
+                        let (used, ready) = fe.feed(rest);
+                        // The per-sample reference over the same samples.
+                        let mut ref_ready = false;
+                        for x in &rest[..used] {
+                            let mut x = *x;
+                            guard.process(&mut gs, &mut x);
+                            let mut y = [0.0; CHANNELS];
+                            let mut any = false;
+                            for ((o, st), v) in y.iter_mut().zip(ds.iter_mut()).zip(x) {
+                                if let Some(s) = d.process(st, v) {
+                                    *o = s;
+                                    any = true;
+                                }
+                            }
+                            if any {
+                                assert!(!ref_ready, "frame completed before the piece ended");
+                                ref_ready = framer.push(y);
+                            }
+                        }
+                        assert_eq!(ready, ref_ready, "rate {rate} split {split}");
+                        if ready {
+                            frames += 1;
+                            assert_eq!(fe.frame(), framer.frame());
+                            assert_eq!(fe.flags(), guard.flags(&gs));
+                        }
+                        n += used;
+                        rest = &rest[used..];
+                    }
+                }
+                assert_eq!(frames, 5, "rate {rate} split {split}");
+            }
+        }
+    }
+}
