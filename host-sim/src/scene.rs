@@ -4,7 +4,7 @@
 //! rotated to the wanted azimuth.
 //!
 //! Diffuse noise has the exact second-order statistics of an isotropic 3-D field in first-order
-//! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E[X²] = E[Y²] = E[Z²] = E[W²]/3. The capsules then
+//! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E\[X²\] = E\[Y²\] = E\[Z²\] = E\[W²\]/3. The capsules then
 //! see omni = W and cardioid_m = ½W + ½(X cos φ_m + Y sin φ_m), so |card|²/|omni|² = ⅓ on average.
 
 use crate::array_model::ArrayModel;
