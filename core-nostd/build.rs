@@ -1,5 +1,5 @@
 //! Generates the constant tables of the core into `OUT_DIR/tables.rs`:
-//! the Hamming window, the half-band decimator taps and the ideal-model reference tables.
+//! the Hamming window, the half-band decimator's all-pass coefficients and the ideal-model reference tables.
 //! All values are computed in f64 and rounded once to f32, so they are identical on every target.
 
 use std::f64::consts::PI;
@@ -13,32 +13,36 @@ mod table_file;
 
 const FRAME_LEN: usize = 512;
 
-fn bessel_i0(x: f64) -> f64 {
-    let mut sum = 1.0;
-    let mut term = 1.0;
-    for k in 1..60 {
-        term *= (x / 2.0).powi(2) / (k * k) as f64;
-        sum += term;
-    }
-    sum
-}
-
-/// Kaiser-windowed half-band low-pass: returns the non-zero odd-offset taps
-/// c_k for offsets ±(2k+1), k = 0.., scaled so that the DC gain is exactly 1
-/// with the centre tap fixed at 0.5.
-fn halfband_pairs(taps: usize, beta: f64) -> Vec<f64> {
-    let m = (taps - 1) / 2;
-    let mut pairs = Vec::new();
-    let mut k = 1;
-    while k <= m {
-        let sinc = (PI * k as f64 / 2.0).sin() / (PI * k as f64);
-        let r = k as f64 / m as f64;
-        let w = bessel_i0(beta * (1.0 - r * r).sqrt()) / bessel_i0(beta);
-        pairs.push(sinc * w);
-        k += 2;
-    }
-    let sum: f64 = pairs.iter().sum::<f64>() * 2.0;
-    pairs.iter().map(|c| c * 0.5 / sum).collect()
+/// All-pass coefficients of an elliptic polyphase IIR half-band low-pass with `n` coefficients
+/// (order 2n + 1) and a transition band `tb` wide (in units of the sampling rate, centred on a quarter
+/// of it): H(z) = ½[A₀(z²) + z⁻¹A₁(z²)], A₀ the sections with even index, A₁ those with odd index, each
+/// (a + z⁻²)/(1 + a·z⁻²). Closed-form design (Valenzuela & Constantinides 1983, in the form of
+/// L. de Soras' HIIR `PolyphaseIir2Designer`), ascending coefficients.
+fn halfband_allpass(n: usize, tb: f64) -> Vec<f64> {
+    let k = (((1.0 - 2.0 * tb) * PI / 4.0).tan()).powi(2);
+    let kk = (1.0 - k * k).powf(0.25);
+    let e = 0.5 * (1.0 - kk) / (1.0 + kk);
+    let e4 = e.powi(4);
+    let q = e * (1.0 + e4 * (2.0 + e4 * (15.0 + 150.0 * e4)));
+    let order = (2 * n + 1) as f64;
+    (1..=n)
+        .map(|c| {
+            let c = c as f64;
+            let (mut num, mut den) = (0.0, 0.5);
+            let mut sign = 1.0;
+            for i in 0..40 {
+                let i = f64::from(i);
+                num += sign * q.powf(i * (i + 1.0)) * ((2.0 * i + 1.0) * c * PI / order).sin();
+                den -=
+                    sign * q.powf((i + 1.0) * (i + 1.0)) * (2.0 * (i + 1.0) * c * PI / order).cos();
+                sign = -sign;
+            }
+            let ww = num * q.powf(0.25) / den;
+            let w2 = ww * ww;
+            let x = ((1.0 - w2 * k) * (1.0 - w2 / k)).sqrt() / (1.0 + w2);
+            (1.0 - x) / (1.0 + x)
+        })
+        .collect()
 }
 
 fn write_f32_array(out: &mut String, doc: &str, name: &str, values: &[f64]) {
@@ -87,17 +91,17 @@ fn main() {
     twiddle.push_str("];\n");
     out.push_str(&twiddle);
 
-    let short = halfband_pairs(11, 3.0);
+    let short = halfband_allpass(2, 1.0 / 3.0);
     write_f32_array(
         &mut out,
-        "/// Odd taps of the short 11-tap half-band (first stage of ÷4/÷8; Kaiser β = 3, ≥ 51 dB rejection above 20/48 of its input rate).",
+        "/// All-pass coefficients of the short IIR half-band (first stage of ÷4/÷8; order 5, transition 1/12–5/12 of its input rate, ≈ 81 dB stopband).",
         "HALFBAND_SHORT",
         &short,
     );
-    let long = halfband_pairs(19, 4.5);
+    let long = halfband_allpass(3, 1.0 / 6.0);
     write_f32_array(
         &mut out,
-        "/// Odd taps of the long 19-tap half-band (last stage; Kaiser β = 4.5; with the short stage ≥ 50.9 dB rejection of everything that aliases into 0–4 kHz at 48 → 12 kHz, ripple < 0.04 dB below 1/6 of its input rate).",
+        "/// All-pass coefficients of the long IIR half-band (last stage; order 7, transition 1/6–1/3 of its input rate, ≈ 68 dB stopband).",
         "HALFBAND_LONG",
         &long,
     );

@@ -28,7 +28,7 @@ use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance, CurveFilter};
-use crate::similarity::CurveBuilder;
+use crate::similarity::{CurveBuilder, RowCache};
 use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
@@ -53,6 +53,8 @@ pub struct Locator<'t> {
     decimator: Decimator,
     picker: PeakPicker,
     curves: CurveBuilder,
+    /// Per-azimuth constants of the last reference row used by the similarity curve.
+    row_cache: RowCache,
     /// Frequency row of the reference table for each bin.
     bin_rows: [u16; NUM_BINS],
     /// Twice the decimator's time offset in input samples.
@@ -127,6 +129,7 @@ impl<'t> Locator<'t> {
                 noisy: NoisyReferences::off(),
                 mean_free: false,
             },
+            row_cache: RowCache::new(),
             bin_rows: [0; NUM_BINS],
             offset2: 0,
             front: FrontEnd::new(
@@ -268,6 +271,7 @@ impl<'t> Locator<'t> {
         self.decimator = decimator;
         self.picker = picker;
         self.curves = curves;
+        self.row_cache.clear();
         self.bin_rows = bin_rows;
         self.offset2 = offset2;
         self.front.reset(decimator, guard);
@@ -466,8 +470,10 @@ impl<'t> Locator<'t> {
             if !(w > 0.0) {
                 continue;
             }
+            let fi = self.bin_rows[k] as usize;
+            let cache = &mut self.row_cache;
             self.curves
-                .accumulate(&self.table, self.bin_rows[k] as usize, y, w, curve);
+                .accumulate_cached(cache, &self.table, fi, y, w, curve);
             weight_sum += w;
             n_used += 1;
         }

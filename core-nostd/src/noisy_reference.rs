@@ -35,7 +35,7 @@ pub struct NoisyReferences {
 }
 
 /// Buckets of the bracket table of [`NoisyReferences::bracket`].
-const LUT_LEN: usize = 128;
+pub(crate) const LUT_LEN: usize = 128;
 
 impl NoisyReferences {
     /// Clean references only (the same as `new(NoiseMixing::Off, …)`).
@@ -125,6 +125,24 @@ impl NoisyReferences {
             }
             lo
         }
+    }
+
+    /// Whether [`NoisyReferences::bracket`] uses its bucket table (n ≥ 2 ascending, spaced α_i).
+    #[must_use]
+    pub(crate) fn lut_ok(&self) -> bool {
+        self.lut_ok
+    }
+
+    /// The bucket table of [`NoisyReferences::bracket`].
+    #[must_use]
+    pub(crate) fn lut(&self) -> &[u8; LUT_LEN] {
+        &self.lut
+    }
+
+    /// All α_i slots (the first n are the weights; the rest padding).
+    #[must_use]
+    pub(crate) fn alphas_padded(&self) -> [f32; MAX_SNR_SETS] {
+        self.alphas
     }
 
     /// The mixing rule.

@@ -2,7 +2,11 @@
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
 use crate::fast_math::sqrtf;
-use crate::noisy_reference::{NoiseMixing, NoisyReferences};
+use crate::noisy_reference::{NoiseMixing, NoisyReferences, LUT_LEN};
+
+/// Bucket scale and last bucket of the bracket table.
+const LUT_SCALE: f32 = LUT_LEN as f32;
+const LUT_MAX: usize = LUT_LEN - 1;
 use crate::reference_table::{Feature, ReferenceTable};
 
 /// Similarity measure.
@@ -54,6 +58,42 @@ impl SimilarityMeasure {
 pub fn mean_free(y: Feature) -> Feature {
     let m = (y[0] + y[1] + y[2]) / 3.0;
     [y[0] - m + 0.5, y[1] - m + 0.5, y[2] - m + 0.5]
+}
+
+/// Azimuths a [`RowCache`] holds (tables with more azimuths take the uncached path).
+pub const ROW_CACHE_LEN: usize = 128;
+
+/// The per-azimuth constants of one frequency row of the fast Euclidean path of
+/// [`CurveBuilder::accumulate_cached`]: r = Y_ref(q) − Y_η and ‖r‖², computed once per row instead of
+/// once per peak and azimuth.
+#[derive(Debug, Clone, Copy)]
+pub struct RowCache {
+    /// Row the entries belong to (`usize::MAX`: none).
+    fi: usize,
+    /// Per azimuth: r₀, r₁, r₂, ‖r‖².
+    rows: [[f32; 4]; ROW_CACHE_LEN],
+}
+
+impl RowCache {
+    /// An empty cache.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            fi: usize::MAX,
+            rows: [[0.0; 4]; ROW_CACHE_LEN],
+        }
+    }
+
+    /// Forgets the cached row (call when the table changes).
+    pub fn clear(&mut self) {
+        self.fi = usize::MAX;
+    }
+}
+
+impl Default for RowCache {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 /// How one peak's similarity row is computed.
@@ -136,6 +176,74 @@ impl CurveBuilder {
         }
     }
 
+    /// [`CurveBuilder::accumulate`] with the per-azimuth constants of row `fi` kept in `cache` (which
+    /// must have been cleared since the table last changed): the same arithmetic in the same order, so
+    /// the curve is bit-identical, but the inner loop only does what depends on the peak.
+    pub fn accumulate_cached(
+        &self,
+        cache: &mut RowCache,
+        table: &ReferenceTable<'_>,
+        fi: usize,
+        y: Feature,
+        weight: f32,
+        curve: &mut [f32],
+    ) {
+        let q = table.num_azimuths().min(curve.len());
+        let n = self.noisy.alphas().len();
+        let fast = self.measure == SimilarityMeasure::Euclidean
+            && !self.mean_free
+            && self.noisy.mixing() != NoiseMixing::Power
+            && self.noisy.lut_ok()
+            && n >= 2
+            && q <= ROW_CACHE_LEN;
+        if !fast {
+            self.accumulate(table, fi, y, weight, curve);
+            return;
+        }
+        let noise_mag = table.noise_magnitude(fi);
+        if cache.fi != fi {
+            for (e, r) in cache.rows.iter_mut().zip(table.row(fi)) {
+                let r = [
+                    r[0] - noise_mag[0],
+                    r[1] - noise_mag[1],
+                    r[2] - noise_mag[2],
+                ];
+                let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+                *e = [r[0], r[1], r[2], rr];
+            }
+            cache.fi = fi;
+        }
+        let d = [
+            y[0] - noise_mag[0],
+            y[1] - noise_mag[1],
+            y[2] - noise_mag[2],
+        ];
+        let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        // Fixed-size copies: the indices below are masked into range, so no bounds checks.
+        let alphas: [f32; 16] = self.noisy.alphas_padded();
+        let lut = self.noisy.lut();
+        let last = n - 2;
+        for (c, e) in curve[..q].iter_mut().zip(&cache.rows[..q]) {
+            let [r0, r1, r2, rr] = *e;
+            let dr = d[0] * r0 + d[1] * r1 + d[2] * r2;
+            // `NoisyReferences::bracket`, table path, inlined.
+            let t = dr / rr;
+            let b = ((t * LUT_SCALE) as usize).min(LUT_MAX);
+            let lo = lut[b] as usize & 15;
+            let lo = if lo < last && alphas[(lo + 1) & 15] <= t {
+                lo + 1
+            } else {
+                lo
+            };
+            let (a, b) = (alphas[lo & 15], alphas[(lo + 1) & 15]);
+            let da = dd + a * (a * rr - 2.0 * dr);
+            let db = dd + b * (b * rr - 2.0 * dr);
+            let best = if db < da { db } else { da };
+            let best = if best > 0.0 { best } else { 0.0 };
+            *c += weight / (1.0 + sqrtf(best));
+        }
+    }
+
     /// max over the SNR sets of Sim(y, mix_i(r)) — the direct evaluation.
     #[must_use]
     pub fn max_similarity(
@@ -197,9 +305,15 @@ mod tests {
                 seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
                 *y = (seed >> 8) as f32 / (1u32 << 24) as f32 * 1.5;
             }
+            let mut cache = RowCache::new();
             for y in ys {
                 let mut fast = [0.0f32; 72];
                 b.accumulate(&table, 0, y, 1.0, &mut fast);
+                let mut cached = [0.25f32; 72];
+                let mut plain = [0.25f32; 72];
+                b.accumulate_cached(&mut cache, &table, 0, y, 0.7, &mut cached);
+                b.accumulate(&table, 0, y, 0.7, &mut plain);
+                assert_eq!(cached.map(f32::to_bits), plain.map(f32::to_bits), "{y:?}");
                 for (q, r) in table.row(0).iter().enumerate() {
                     let direct = b.max_similarity(y, *r, [0.5; 3], [0.5; 3]);
                     assert!((fast[q] - direct).abs() < 2e-6, "{mixing:?} {y:?} q {q}");

@@ -12,7 +12,7 @@ use cma_core::interpolation::argmax_parabolic;
 use cma_core::noisy_reference::NoisyReferences;
 use cma_core::peak_picker::{PeakPicker, Peaks};
 use cma_core::reliability::{curve_variance, CurveFilter};
-use cma_core::similarity::CurveBuilder;
+use cma_core::similarity::{CurveBuilder, RowCache};
 use cma_core::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use cma_core::{LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, NUM_BINS};
 use core::hint::black_box;
@@ -82,6 +82,7 @@ pub struct Bench {
     front: FrontEnd,
     picker: PeakPicker,
     curves: CurveBuilder,
+    row_cache: RowCache,
     table: ReferenceTable<'static>,
 }
 
@@ -119,6 +120,7 @@ impl Bench {
                 min_power: c.peak_threshold * c.peak_threshold,
                 fill: c.fill_peaks,
             },
+            row_cache: RowCache::new(),
             curves: CurveBuilder {
                 measure: c.measure,
                 noisy: NoisyReferences::new(
@@ -199,7 +201,8 @@ impl Bench {
             let Some(y) = feature_from_powers(self.omni_power[k], pc) else {
                 continue;
             };
-            self.curves.accumulate(&self.table, 0, y, 1.0, curve);
+            self.curves
+                .accumulate_cached(&mut self.row_cache, &self.table, 0, y, 1.0, curve);
             weight_sum += 1.0;
         }
         let inv = 1.0 / weight_sum;
