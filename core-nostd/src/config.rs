@@ -37,6 +37,9 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     jump_probability: 0.01,
     velocity_pole: 0.98,
     min_velocity_deg: 0.3,
+    velocity_gain: 0.0,
+    likelihood_floor: 0.2,
+    motion_diffusion: 2.0,
 };
 
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or

@@ -30,6 +30,21 @@ pub struct GridTracker {
     /// Dead zone of the drift, degrees per frame: slower velocity estimates (noise around a still
     /// talker) do not move the prior, faster ones move it by their excess.
     pub min_velocity_deg: f32,
+    /// Gain of the innovation-driven velocity estimate (0: the velocity is the `velocity_pole`
+    /// average of the frame-to-frame change of the estimate). With a gain g > 0 the velocity follows
+    /// the innovation, i.e. the difference between the reported azimuth and the drifted previous one,
+    /// weighted by the frame's reliability b: v ← v + b·(g·innovation − (1 − velocity_pole)·v). In
+    /// pauses (b ≈ 0) the velocity is kept, so the prior keeps moving with a talker that walks on
+    /// while silent, and a static talker's noise averages out instead of being integrated.
+    pub velocity_gain: f32,
+    /// Floor f of the per-frame likelihood, relative to its maximum:
+    /// L = f + (1 − f)·exp(λ·b·(S − max S)). A floor bounds how much one frame can move the
+    /// posterior, so a single frame dominated by a reflection cannot capture the track (0 disables).
+    pub likelihood_floor: f32,
+    /// Extra random-walk standard deviation per unit of drift: while the talker is seen moving at
+    /// |v| degrees per frame (beyond the dead zone) the diffusion is √(σ² + (m·v)²), so the prior
+    /// widens for a moving talker, whose speed changes, and stays tight for a still one (0 disables).
+    pub motion_diffusion: f32,
 }
 
 /// Frame-to-frame changes larger than this (degrees) are jumps, not motion, for the velocity estimate.
@@ -45,6 +60,10 @@ pub struct GridTrackerState {
     velocity: f32,
     /// Previous reported azimuth, degrees (NaN before the first).
     previous: f32,
+    /// Drift applied by the last prediction, degrees per frame.
+    drift: f32,
+    /// Reliability b of the last update.
+    last_b: f32,
 }
 
 impl Default for GridTrackerState {
@@ -63,6 +82,8 @@ impl GridTrackerState {
             initialized: false,
             velocity: 0.0,
             previous: f32::NAN,
+            drift: 0.0,
+            last_b: 0.0,
         }
     }
 
@@ -110,10 +131,22 @@ impl GridTracker {
         }
         // Predict: circular 3-tap kernel with mean = drift and variance = diffusion (bins), plus
         // the jump floor. Mass moves from bin j to j + 1 with weight `up`.
-        let var = 2.0 * self.kernel_side(spacing_deg);
         let v = state.velocity;
         let v = if v.abs() > self.min_velocity_deg {
             v
+        } else {
+            0.0
+        };
+        let var = if self.motion_diffusion > 0.0 && v != 0.0 && spacing_deg > 0.0 {
+            let m = self.motion_diffusion * v;
+            let sd = self.diffusion_deg * self.diffusion_deg + m * m;
+            (sd / (spacing_deg * spacing_deg)).clamp(0.0, 2.0 / 3.0)
+        } else {
+            2.0 * self.kernel_side(spacing_deg)
+        };
+        state.drift = v;
+        state.last_b = if b.is_finite() {
+            b.clamp(0.0, 1.0)
         } else {
             0.0
         };
@@ -137,10 +170,11 @@ impl GridTracker {
         // Update with the tempered likelihood.
         let gain = self.sharpness * b.clamp(0.0, 1.0);
         let s_max = curve[..q].iter().fold(f32::NEG_INFINITY, |m, v| m.max(*v));
+        let floor = self.likelihood_floor.clamp(0.0, 1.0);
         let mut sum = 0.0f32;
         for i in 0..q {
             let like = if gain > 0.0 && s_max.is_finite() {
-                libm::expf(gain * (curve[i] - s_max))
+                floor + (1.0 - floor) * libm::expf(gain * (curve[i] - s_max))
             } else {
                 1.0
             };
@@ -161,7 +195,20 @@ impl GridTracker {
 
     /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate.
     pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32) {
-        if self.velocity_pole > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
+        if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
+            let innovation = crate::angle::wrap_deg(azimuth_deg - state.previous - state.drift);
+            if innovation.abs() <= MAX_MOTION_STEP_DEG {
+                let leak = 1.0 - self.velocity_pole.clamp(0.0, 1.0);
+                let v = state.velocity
+                    + state.last_b * (self.velocity_gain * innovation - leak * state.velocity);
+                state.velocity = if v.is_finite() {
+                    v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG)
+                } else {
+                    0.0
+                };
+            }
+        } else if self.velocity_pole > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite()
+        {
             let d = crate::angle::wrap_deg(azimuth_deg - state.previous);
             if d.abs() <= MAX_MOTION_STEP_DEG {
                 let a = self.velocity_pole.clamp(0.0, 1.0);
@@ -203,6 +250,9 @@ mod tests {
             jump_probability: 0.01,
             velocity_pole: 0.0,
             min_velocity_deg: 0.0,
+            velocity_gain: 0.0,
+            likelihood_floor: 0.0,
+            motion_diffusion: 0.0,
         };
         let mut s = GridTrackerState::new();
         for _ in 0..20 {
@@ -233,6 +283,9 @@ mod tests {
             jump_probability: 0.01,
             velocity_pole: 0.0,
             min_velocity_deg: 0.0,
+            velocity_gain: 0.0,
+            likelihood_floor: 0.0,
+            motion_diffusion: 0.0,
         };
         let mut s = GridTrackerState::new();
         t.update(&mut s, &[f32::NAN; 72], 1.0, 5.0);

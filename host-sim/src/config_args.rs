@@ -112,6 +112,15 @@ pub struct ConfigArgs {
     /// Grid tracker: jump probability per frame.
     #[arg(long)]
     pub jump_prob: Option<f32>,
+    /// Grid tracker: gain of the b-weighted innovation velocity estimate (0 = pole average).
+    #[arg(long)]
+    pub velocity_gain: Option<f32>,
+    /// Grid tracker: likelihood floor relative to the maximum (0 = off).
+    #[arg(long)]
+    pub likelihood_floor: Option<f32>,
+    /// Grid tracker: extra diffusion per unit of drift velocity (0 = off).
+    #[arg(long)]
+    pub motion_diffusion: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -197,6 +206,15 @@ impl ConfigArgs {
         }
         if let Some(v) = self.jump_prob {
             grid.jump_probability = v;
+        }
+        if let Some(v) = self.velocity_gain {
+            grid.velocity_gain = v;
+        }
+        if let Some(v) = self.likelihood_floor {
+            grid.likelihood_floor = v;
+        }
+        if let Some(v) = self.motion_diffusion {
+            grid.motion_diffusion = v;
         }
         c.tracking = match (self.tracker, c.tracking) {
             (Some(TrackerArg::Onepole), _) => Tracking::OnePole,
