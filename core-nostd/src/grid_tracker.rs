@@ -293,4 +293,77 @@ mod tests {
         t.update(&mut s, &[0.5; 72], f32::INFINITY, 0.0);
         assert!(s.posterior(72).iter().all(|v| v.is_finite()));
     }
+
+    fn base() -> GridTracker {
+        GridTracker {
+            sharpness: 60.0,
+            diffusion_deg: 1.0,
+            jump_probability: 0.01,
+            velocity_pole: 0.0,
+            min_velocity_deg: 0.0,
+            velocity_gain: 0.0,
+            likelihood_floor: 0.0,
+            motion_diffusion: 0.0,
+        }
+    }
+
+    #[test]
+    fn likelihood_floor_limits_what_one_frame_can_do() {
+        let contradiction = |t: GridTracker| {
+            let mut s = GridTrackerState::new();
+            for _ in 0..30 {
+                t.update(&mut s, &peaked(72, 10), 1.0, 5.0);
+            }
+            // One confident frame from a reflection at bin 40.
+            t.update(&mut s, &peaked(72, 40), 1.0, 5.0);
+            s.posterior(72)[40] / s.posterior(72)[10]
+        };
+        let without = contradiction(base());
+        let with = contradiction(GridTracker {
+            likelihood_floor: 0.2,
+            ..base()
+        });
+        assert!(with < without, "floor: {with} vs no floor: {without}");
+    }
+
+    #[test]
+    fn velocity_drift_follows_a_moving_peak_and_motion_diffusion_keeps_static_tracks() {
+        let track = |t: GridTracker, step_bins_per_frame: f32| {
+            let mut s = GridTrackerState::new();
+            let mut err = 0.0f32;
+            let n = 200;
+            for f in 0..n {
+                let pos = 10.0 + step_bins_per_frame * f as f32;
+                let curve: [f32; 72] = core::array::from_fn(|i| {
+                    let d = crate::angle::wrap_deg((i as f32 - pos) * 5.0).abs();
+                    1.0 / (1.0 + 0.01 * d)
+                });
+                let post = t.update(&mut s, &curve, 0.3, 5.0);
+                let est = argmax(post) as f32 * 5.0;
+                t.observe_estimate(&mut s, est);
+                if f > n / 2 {
+                    err += crate::angle::wrap_deg(est - pos * 5.0);
+                }
+            }
+            err / (n / 2 - 1) as f32
+        };
+        let moving = 0.15; // bins per frame = 0.75°/frame
+        let lag_plain = track(base(), moving);
+        let drift = GridTracker {
+            velocity_pole: 0.98,
+            min_velocity_deg: 0.3,
+            ..base()
+        };
+        let lag_drift = track(drift, moving);
+        assert!(
+            lag_drift.abs() < lag_plain.abs(),
+            "drift {lag_drift} vs plain {lag_plain}"
+        );
+        // A still talker: the motion-dependent diffusion changes nothing (v = 0 inside the dead zone).
+        let with_md = GridTracker {
+            motion_diffusion: 2.0,
+            ..drift
+        };
+        assert_eq!(track(drift, 0.0), track(with_md, 0.0));
+    }
 }
