@@ -247,12 +247,7 @@ mod tests {
         let t = GridTracker {
             sharpness: 20.0,
             diffusion_deg: 2.0,
-            jump_probability: 0.01,
-            velocity_pole: 0.0,
-            min_velocity_deg: 0.0,
-            velocity_gain: 0.0,
-            likelihood_floor: 0.0,
-            motion_diffusion: 0.0,
+            ..base()
         };
         let mut s = GridTrackerState::new();
         for _ in 0..20 {
@@ -280,12 +275,7 @@ mod tests {
         let t = GridTracker {
             sharpness: 20.0,
             diffusion_deg: 2.0,
-            jump_probability: 0.01,
-            velocity_pole: 0.0,
-            min_velocity_deg: 0.0,
-            velocity_gain: 0.0,
-            likelihood_floor: 0.0,
-            motion_diffusion: 0.0,
+            ..base()
         };
         let mut s = GridTrackerState::new();
         t.update(&mut s, &[f32::NAN; 72], 1.0, 5.0);

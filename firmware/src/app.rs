@@ -7,9 +7,9 @@
 //! ```
 
 use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
+use cma_core::wire;
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
 use cma_firmware::stats::Counters;
-use cma_firmware::wire_compat as wire;
 use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
@@ -93,15 +93,18 @@ async fn dsp_task(
 #[embassy_executor::task]
 async fn uart_task(mut uart: FrameTx) {
     let mut line = [0u8; wire::MAX_LINE];
+    // `seq` counts lines sent (docs/wire-format.md): frames dropped by backpressure show in `drop`.
+    let mut seq: u32 = 0;
     loop {
         let e = ESTIMATES.receive().await;
         let frame = wire::Frame::from_estimate(
             &e,
-            e.frame_index,
+            seq,
             SAMPLE_RATE_HZ,
             COUNTERS.overruns(),
             COUNTERS.dropped(),
         );
+        seq = seq.wrapping_add(1);
         let n = wire::encode(&frame, &mut line);
         if let Err(err) = uart.write(&line[..n]).await {
             defmt::warn!("UART write failed: {}", err);

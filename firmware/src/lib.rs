@@ -9,4 +9,3 @@
 
 pub mod sample;
 pub mod stats;
-pub mod wire_compat;
