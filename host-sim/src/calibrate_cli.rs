@@ -5,7 +5,7 @@ use crate::calibrate::{self, CalibrationOptions, Measurement};
 use crate::error::{Result, SimError};
 use crate::sweep::SweepSpec;
 use crate::table_io::OwnedTable;
-use crate::wav_io::{read_interleaved, read_mono, write_wav, OutFormat};
+use crate::wav_io::{read_four_channels, read_mono, write_wav, OutFormat};
 use cma_core::CARDIOID_LOOK_DEG;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -116,15 +116,7 @@ pub fn cmd_sweep(a: &SweepArgs) -> Result<()> {
 
 /// Reads one 4-channel recording.
 pub fn read_measurement(path: &Path, azimuth_deg: f64) -> Result<Measurement> {
-    let (spec, data) = read_interleaved(path)?;
-    if spec.channels != 4 {
-        return Err(SimError::ChannelCount {
-            path: path.to_path_buf(),
-            expected: 4,
-            got: spec.channels,
-            layout: "omni, cardioid 0°, 120°, 240°",
-        });
-    }
+    let (spec, data) = read_four_channels(path, "omni, cardioid 0°, 120°, 240°")?;
     Ok(Measurement {
         label: path.display().to_string(),
         azimuth_deg,

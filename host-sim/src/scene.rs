@@ -11,7 +11,7 @@ use crate::array_model::ArrayModel;
 use crate::error::{Result, SimError};
 use crate::ground_truth::{wrap180, Track};
 use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
-use crate::wav_io::{read_interleaved, read_mono, write_atomically, write_wav, OutFormat};
+use crate::wav_io::{read_four_channels, read_mono, write_atomically, write_wav, OutFormat};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -92,15 +92,7 @@ impl RoomResponse {
         max_s: f64,
         direct_deg: Option<f64>,
     ) -> Result<Self> {
-        let (spec, data) = read_interleaved(path)?;
-        if spec.channels != 4 {
-            return Err(SimError::ChannelCount {
-                path: path.to_path_buf(),
-                expected: 4,
-                got: spec.channels,
-                layout: "AmbiX W, Y, Z, X",
-            });
-        }
+        let (spec, data) = read_four_channels(path, "AmbiX W, Y, Z, X")?;
         let g = if n3d { 1.0 / 3f64.sqrt() } else { 1.0 };
         let ch = |i: usize, gain: f64| -> Vec<f64> {
             let v: Vec<f64> = data.chunks_exact(4).map(|c| c[i] as f64 * gain).collect();

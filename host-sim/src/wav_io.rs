@@ -163,20 +163,29 @@ fn decode_packed(raw: &[u8], format: hound::SampleFormat, bits: u16) -> Vec<f32>
     }
 }
 
-/// Reads a 4-channel recording and converts it to CMA1 order.
-pub fn read_recording(path: &Path, layout: InputLayout) -> Result<Recording> {
+/// Reads a WAV that must have 4 channels (`layout` names them in the error message).
+pub fn read_four_channels(path: &Path, layout: &'static str) -> Result<(hound::WavSpec, Vec<f32>)> {
     let (spec, data) = read_interleaved(path)?;
     if spec.channels != 4 {
         return Err(SimError::ChannelCount {
             path: path.to_path_buf(),
             expected: 4,
             got: spec.channels,
-            layout: match layout {
-                InputLayout::Cma1 => "omni, cardioid 0°, cardioid 120°, cardioid 240°",
-                _ => "AmbiX W, Y, Z, X",
-            },
+            layout,
         });
     }
+    Ok((spec, data))
+}
+
+/// Reads a 4-channel recording and converts it to CMA1 order.
+pub fn read_recording(path: &Path, layout: InputLayout) -> Result<Recording> {
+    let (spec, data) = read_four_channels(
+        path,
+        match layout {
+            InputLayout::Cma1 => "omni, cardioid 0°, cardioid 120°, cardioid 240°",
+            _ => "AmbiX W, Y, Z, X",
+        },
+    )?;
     cma_core::decimator::Decimator::for_rate(spec.sample_rate).map_err(|source| {
         SimError::Core {
             context: path.display().to_string(),
