@@ -5,6 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/demo}
+scripts/setup.sh   # idempotent: fonts for the plots and the tools the tests need
 cargo build --release -p host-sim
 HS=target/release/host-sim
 rm -rf "$OUT"; mkdir -p "$OUT"
