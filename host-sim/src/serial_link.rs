@@ -125,16 +125,7 @@ impl Link {
         match port.read(buf) {
             Ok(0) => self.lost("end of stream (hang-up)".into()),
             Ok(n) => ReadOutcome::Data(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                ReadOutcome::Idle
-            }
+            Err(e) if is_transient(e.kind()) => ReadOutcome::Idle,
             Err(e) => self.lost(e.to_string()),
         }
     }
@@ -145,6 +136,14 @@ impl Link {
         self.last_attempt = Some(Instant::now());
         ReadOutcome::Disconnected
     }
+}
+
+/// Errors that mean "nothing yet, try again" on a serial port (read/write time-outs, signals).
+fn is_transient(kind: io::ErrorKind) -> bool {
+    matches!(
+        kind,
+        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+    )
 }
 
 /// Writes all of `bytes` to `port`, retrying on write time-outs (a full output buffer) until
@@ -168,14 +167,7 @@ pub fn write_all(
                 bytes = &bytes[n..];
                 last_progress = Instant::now();
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::TimedOut
-                        | io::ErrorKind::WouldBlock
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
+            Err(e) if is_transient(e.kind()) => {
                 if last_progress.elapsed() > stall {
                     return Err(SimError::Other(format!(
                         "{}: nothing could be written for {:.1} s (is anyone reading the port?)",
