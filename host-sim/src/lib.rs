@@ -24,6 +24,7 @@ pub mod scene;
 pub mod score;
 pub mod serial_link;
 pub mod signal;
+pub mod stdout_text;
 pub mod sweep;
 pub mod table_io;
 pub mod wav_io;
@@ -196,8 +197,7 @@ where
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
             ) =>
         {
-            print!("{e}");
-            return Ok(());
+            return stdout_text::print_text(&e.to_string());
         }
         Err(e) => return Err(SimError::Usage(e.render().to_string())),
     };
@@ -242,7 +242,7 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
             locate::write_csv(std::io::BufWriter::new(f), &rows).map_err(|e| SimError::io(tmp, e))
         }),
         None => locate::write_csv(std::io::stdout().lock(), &rows)
-            .map_err(|e| SimError::io("<stdout>", e)),
+            .map_err(|e| SimError::io(stdout_text::STDOUT, e)),
     }
 }
 
@@ -259,12 +259,11 @@ fn cmd_eval(a: &EvalArgs) -> Result<()> {
     })?;
     pb.finish_and_clear();
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?
-        );
+        let json =
+            serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?;
+        stdout_text::print_text(&format!("{json}\n"))?;
     } else {
-        print!("{}", eval::format_table(&report));
+        stdout_text::print_text(&eval::format_table(&report))?;
     }
     if let Some(dir) = &a.plots {
         std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;

@@ -81,12 +81,9 @@ pub fn report(a: &ScoreArgs) -> Result<Report> {
 pub fn run(a: &ScoreArgs) -> Result<()> {
     let r = report(a)?;
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&r).map_err(|e| SimError::Other(e.to_string()))?
-        );
+        let json = serde_json::to_string_pretty(&r).map_err(|e| SimError::Other(e.to_string()))?;
+        crate::stdout_text::print_text(&format!("{json}\n"))
     } else {
-        print!("{}", eval::format_table(&r));
+        crate::stdout_text::print_text(&eval::format_table(&r))
     }
-    Ok(())
 }

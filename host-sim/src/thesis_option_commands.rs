@@ -134,8 +134,7 @@ pub(crate) fn beam(a: &BeamArgs) -> Result<()> {
 
 pub(crate) fn beam_report(a: &BeamReportArgs) -> Result<()> {
     let rows = beam::beam_report(&a.data, a.snr, 16_000)?;
-    print!("{}", beam::format_report(&rows));
-    Ok(())
+    crate::stdout_text::print_text(&beam::format_report(&rows))
 }
 
 pub(crate) fn options_eval(a: &OptionsEvalArgs) -> Result<()> {
@@ -160,6 +159,5 @@ pub(crate) fn distance_report(a: &DistanceReportArgs) -> Result<()> {
         (a.band_lo, a.band_hi),
         a.peaks.max(1),
     )?;
-    print!("{}", crate::distance_eval::format_report(&rows));
-    Ok(())
+    crate::stdout_text::print_text(&crate::distance_eval::format_report(&rows))
 }
