@@ -22,7 +22,7 @@ fn closed_stdout_is_a_normal_end() {
     {
         let args = ["locate", wav.to_str().unwrap()];
         let mut child = Command::new(BIN)
-            .args(&args)
+            .args(args)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
