@@ -4,7 +4,7 @@
 # speech, 12 s), 3 circling with real speech (3 s), 3 static anechoic at 0 dB.
 # Usage: scripts/accuracy_validation.sh OUT_DIR   then   host-sim eval OUT_DIR
 set -e
-H=${HS:-/work/wt-accuracy/target/release/host-sim}
+H=${HS:-$(cd "$(dirname "$0")/.." && pwd)/target/release/host-sim}
 S=/work/shared/data/src/speech
 R=/work/shared/data/src/rir
 O=${1:?output folder}

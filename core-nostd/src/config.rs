@@ -40,6 +40,9 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     velocity_gain: 0.0,
     likelihood_floor: 0.2,
     motion_diffusion: 2.0,
+    onset_jump_probability: 0.3,
+    pause_frames: 6,
+    onset_frames: 3,
 };
 
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or

@@ -45,6 +45,16 @@ pub struct GridTracker {
     /// |v| degrees per frame (beyond the dead zone) the diffusion is √(σ² + (m·v)²), so the prior
     /// widens for a moving talker, whose speed changes, and stays tight for a still one (0 disables).
     pub motion_diffusion: f32,
+    /// Jump probability ε for the first [`GridTracker::onset_frames`] reliable frames after a
+    /// pause (at least [`GridTracker::pause_frames`] frames with b = 0): a talker changes place, or
+    /// another talker starts, between utterances rather than within one, and the first frames of
+    /// an utterance carry the most direct sound. Below [`GridTracker::jump_probability`] it has no
+    /// effect.
+    pub onset_jump_probability: f32,
+    /// Frames with b = 0 that make a pause for [`GridTracker::onset_jump_probability`] (0 disables it).
+    pub pause_frames: u32,
+    /// Reliable frames after a pause that use [`GridTracker::onset_jump_probability`].
+    pub onset_frames: u32,
 }
 
 /// Frame-to-frame changes larger than this (degrees) are jumps, not motion, for the velocity estimate.
@@ -64,6 +74,10 @@ pub struct GridTrackerState {
     drift: f32,
     /// Reliability b of the last update.
     last_b: f32,
+    /// Consecutive frames with b = 0 up to the last update.
+    quiet: u32,
+    /// Reliable frames left that use the onset jump probability.
+    onset_left: u32,
 }
 
 impl Default for GridTrackerState {
@@ -84,6 +98,8 @@ impl GridTrackerState {
             previous: f32::NAN,
             drift: 0.0,
             last_b: 0.0,
+            quiet: 0,
+            onset_left: 0,
         }
     }
 
@@ -110,6 +126,27 @@ impl GridTracker {
         }
         let s = self.diffusion_deg / spacing_deg;
         (0.5 * s * s).clamp(0.0, 1.0 / 3.0)
+    }
+
+    /// The jump probability of this frame, with the pause/onset bookkeeping of `state`.
+    fn jump_probability_for(&self, state: &mut GridTrackerState, b: f32) -> f32 {
+        if self.pause_frames == 0 {
+            return self.jump_probability;
+        }
+        if !(b > 0.0) {
+            state.quiet = state.quiet.saturating_add(1);
+            return self.jump_probability;
+        }
+        if state.quiet >= self.pause_frames {
+            state.onset_left = self.onset_frames;
+        }
+        state.quiet = 0;
+        if state.onset_left > 0 {
+            state.onset_left -= 1;
+            self.jump_probability.max(self.onset_jump_probability)
+        } else {
+            self.jump_probability
+        }
     }
 
     /// One predict/update step with the frame's curve and reliability `b`; returns the posterior.
@@ -159,7 +196,7 @@ impl GridTracker {
         let up = (0.5 * (second + shift)).max(0.0);
         let down = (0.5 * (second - shift)).max(0.0);
         let stay = (1.0 - up - down).max(0.0);
-        let eps = self.jump_probability.clamp(0.0, 1.0);
+        let eps = self.jump_probability_for(state, b).clamp(0.0, 1.0);
         let p = &state.posterior[..q];
         for i in 0..q {
             let l = p[if i == 0 { q - 1 } else { i - 1 }];
@@ -270,6 +307,44 @@ mod tests {
         assert!((sum - 1.0).abs() < 1e-4);
     }
 
+    /// Frames until the argmax moves from bin 10 to bin 40, after `pause` frames with b = 0.
+    fn frames_to_switch(t: GridTracker, pause: usize) -> usize {
+        let mut s = GridTrackerState::new();
+        for _ in 0..100 {
+            t.update(&mut s, &peaked(72, 10), 1.0, 5.0);
+        }
+        for _ in 0..pause {
+            t.update(&mut s, &peaked(72, 40), 0.0, 5.0);
+        }
+        let mut frames = 0;
+        while argmax(s.posterior(72)) != 40 {
+            t.update(&mut s, &peaked(72, 40), 0.5, 5.0);
+            frames += 1;
+            assert!(frames < 100);
+        }
+        frames
+    }
+
+    #[test]
+    fn a_new_utterance_after_a_pause_may_come_from_elsewhere() {
+        let t = GridTracker {
+            likelihood_floor: 0.2,
+            ..base()
+        };
+        let onset = GridTracker {
+            onset_jump_probability: 0.3,
+            pause_frames: 6,
+            onset_frames: 3,
+            ..t
+        };
+        // Without a pause (or with a shorter one) the onset rule changes nothing.
+        assert_eq!(frames_to_switch(onset, 0), frames_to_switch(t, 0));
+        assert_eq!(frames_to_switch(onset, 5), frames_to_switch(t, 5));
+        // After a pause the first reliable frames may jump: the switch comes sooner.
+        let (with, without) = (frames_to_switch(onset, 6), frames_to_switch(t, 6));
+        assert!(with + 2 <= without, "{with} vs {without}");
+    }
+
     #[test]
     fn degenerate_inputs_keep_a_valid_posterior() {
         let t = GridTracker {
@@ -294,6 +369,9 @@ mod tests {
             velocity_gain: 0.0,
             likelihood_floor: 0.0,
             motion_diffusion: 0.0,
+            onset_jump_probability: 0.0,
+            pause_frames: 0,
+            onset_frames: 0,
         }
     }
 

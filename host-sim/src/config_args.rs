@@ -121,6 +121,15 @@ pub struct ConfigArgs {
     /// Grid tracker: extra diffusion per unit of drift velocity (0 = off).
     #[arg(long)]
     pub motion_diffusion: Option<f32>,
+    /// Grid tracker: jump probability of the first reliable frames after a pause.
+    #[arg(long)]
+    pub onset_jump_prob: Option<f32>,
+    /// Grid tracker: frames with b = 0 that make a pause (0 = no onset jump probability).
+    #[arg(long)]
+    pub pause_frames: Option<u32>,
+    /// Grid tracker: reliable frames after a pause that use the onset jump probability.
+    #[arg(long)]
+    pub onset_frames: Option<u32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -215,6 +224,15 @@ impl ConfigArgs {
         }
         if let Some(v) = self.motion_diffusion {
             grid.motion_diffusion = v;
+        }
+        if let Some(v) = self.onset_jump_prob {
+            grid.onset_jump_probability = v;
+        }
+        if let Some(v) = self.pause_frames {
+            grid.pause_frames = v;
+        }
+        if let Some(v) = self.onset_frames {
+            grid.onset_frames = v;
         }
         c.tracking = match (self.tracker, c.tracking) {
             (Some(TrackerArg::Onepole), _) => Tracking::OnePole,
