@@ -91,9 +91,14 @@ impl OnsetState {
         }
     }
 
-    /// Folds this frame's omni power spectrum into the average (after the weights were taken).
-    pub fn update(&mut self, pole: f32, power: &[f32; NUM_BINS]) {
-        for (a, p) in self.avg.iter_mut().zip(power) {
+    /// Folds this frame's omni power spectrum into the average (after the weights were taken),
+    /// for the bins `lo..=hi` only (the peak picker's band: no other bin is ever weighted).
+    pub fn update(&mut self, pole: f32, power: &[f32; NUM_BINS], lo: usize, hi: usize) {
+        let hi = hi.min(NUM_BINS - 1);
+        if lo > hi {
+            return;
+        }
+        for (a, p) in self.avg[lo..=hi].iter_mut().zip(&power[lo..=hi]) {
             *a = pole * *a + (1.0 - pole) * p;
         }
     }

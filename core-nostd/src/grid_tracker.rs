@@ -206,7 +206,10 @@ impl GridTracker {
         }
         // Update with the tempered likelihood.
         let gain = self.sharpness * b.clamp(0.0, 1.0);
-        let s_max = curve[..q].iter().fold(f32::NEG_INFINITY, |m, v| m.max(*v));
+        // `if` rather than `f32::max`, a library call on the Cortex-M4F (NaNs are skipped alike).
+        let s_max = curve[..q]
+            .iter()
+            .fold(f32::NEG_INFINITY, |m, v| if *v > m { *v } else { m });
         let floor = self.likelihood_floor.clamp(0.0, 1.0);
         let mut sum = 0.0f32;
         for i in 0..q {

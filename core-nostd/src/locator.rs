@@ -478,7 +478,8 @@ impl<'t> Locator<'t> {
             n_used += 1;
         }
         if ds.onset_exponent > 0.0 {
-            self.onset.update(ds.onset_pole, &self.omni_power);
+            let (lo, hi) = self.picker.band();
+            self.onset.update(ds.onset_pole, &self.omni_power, lo, hi);
         }
 
         let mut b = gate;

@@ -88,6 +88,15 @@ impl PeakPicker {
         power[k] > power[k - 1] && power[k] >= power[k + 1]
     }
 
+    /// The bins peaks can come from, `(lo, hi)` inclusive, for spectra of [`crate::NUM_BINS`] bins.
+    #[must_use]
+    pub fn band(&self) -> (usize, usize) {
+        (
+            self.lo_bin.max(1),
+            self.hi_bin.min(crate::NUM_BINS.saturating_sub(2)),
+        )
+    }
+
     /// Picks peaks from `power` (one value per bin, DC…Nyquist) into `out`.
     pub fn process(&self, power: &[f32], out: &mut Peaks) {
         *out = Peaks::default();
