@@ -20,6 +20,19 @@ pub fn sqrtf(x: f32) -> f32 {
     }
 }
 
+/// √max(x, 0): 0 for negative `x` (and −0); the clamp is one integer operation on the bits (the
+/// value is moved to a core register for [`sqrtf`]'s `asm!` on the M4F anyway), where a float compare
+/// would cost a compare, a flag transfer and a conditional move. Bit-identical to
+/// `sqrtf(if x > 0.0 { x } else { 0.0 })` for every `x` except a positive NaN (NaN instead of 0).
+#[inline(always)]
+#[must_use]
+pub fn sqrt_nonneg(x: f32) -> f32 {
+    let b = x.to_bits();
+    // Sign bit set: the arithmetic shift gives all ones, so the mask clears every bit (→ +0).
+    let b = b & !(((b as i32) >> 31) as u32);
+    sqrtf(f32::from_bits(b))
+}
+
 /// `VSQRT.F32` on the FPU.
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
 #[inline(always)]
@@ -63,5 +76,23 @@ mod tests {
         assert_eq!(sqrtf(0.0), 0.0);
         assert_eq!(sqrtf(4.0), 2.0);
         assert!(sqrtf(-1.0).is_nan());
+    }
+
+    #[test]
+    fn nonneg_clamps_like_a_float_compare() {
+        for x in [
+            -1.0f32,
+            -0.0,
+            0.0,
+            1e-45,
+            -1e-45,
+            2.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -f32::NAN,
+        ] {
+            let want = sqrtf(if x > 0.0 { x } else { 0.0 });
+            assert_eq!(sqrt_nonneg(x).to_bits(), want.to_bits(), "{x:e}");
+        }
     }
 }

@@ -1,13 +1,13 @@
 //! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
-use crate::fast_math::sqrtf;
-use crate::noisy_reference::{NoiseMixing, NoisyReferences, LUT_LEN};
+use crate::fast_math::{sqrt_nonneg, sqrtf};
+use crate::noisy_reference::{nearest_in, NoiseMixing, NoisyReferences, LUT_LEN};
 
-/// Bucket scale and last bucket of the bracket table.
+/// Bucket scale of the α tables of [`NoisyReferences`].
 const LUT_SCALE: f32 = LUT_LEN as f32;
-const LUT_MAX: usize = LUT_LEN - 1;
 use crate::reference_table::{Feature, ReferenceTable};
+use crate::MAX_SNR_SETS;
 
 /// Similarity measure.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,14 +64,15 @@ pub fn mean_free(y: Feature) -> Feature {
 pub const ROW_CACHE_LEN: usize = 128;
 
 /// The per-azimuth constants of one frequency row of the fast Euclidean path of
-/// [`CurveBuilder::accumulate_cached`]: r = Y_ref(q) − Y_η and ‖r‖², computed once per row instead of
-/// once per peak and azimuth.
+/// [`CurveBuilder::accumulate_cached`]: with r = Y_ref(q) − Y_η, the vector −2r, ‖r‖² and
+/// −64/‖r‖² (−½·128/‖r‖², 128 buckets of the α table), computed once per row instead of once per peak
+/// and azimuth.
 #[derive(Debug, Clone, Copy)]
 pub struct RowCache {
     /// Row the entries belong to (`usize::MAX`: none).
     fi: usize,
-    /// Per azimuth: r₀, r₁, r₂, ‖r‖².
-    rows: [[f32; 4]; ROW_CACHE_LEN],
+    /// Per azimuth: −2r₀, −2r₁, −2r₂, ‖r‖², −64/‖r‖² (see [`row_constants`]).
+    rows: [[f32; 5]; ROW_CACHE_LEN],
 }
 
 impl RowCache {
@@ -80,7 +81,7 @@ impl RowCache {
     pub const fn new() -> Self {
         Self {
             fi: usize::MAX,
-            rows: [[0.0; 4]; ROW_CACHE_LEN],
+            rows: [[0.0; 5]; ROW_CACHE_LEN],
         }
     }
 
@@ -113,9 +114,12 @@ impl CurveBuilder {
     /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed
     /// references lie on the segment between Y_ref(q) and Y_η, so
     /// ‖y − Y_i‖² = ‖d‖² − 2α_i·d·r + α_i²·‖r‖² with d = y − Y_η, r = Y_ref(q) − Y_η, and only the
-    /// smallest distance needs a square root. That distance is a parabola in α_i, so only the two α_i
-    /// bracketing its vertex are evaluated (the α_i ascend: [`NoisyReferences`] builds them from ascending
-    /// SNRs). It equals the direct evaluation up to rounding.
+    /// smallest distance needs a square root. That distance is a parabola in α_i, symmetric about its
+    /// vertex α* = d·r/‖r‖², so the best α_i is the one nearest to α* ([`NoisyReferences::nearest`],
+    /// evaluated at α*·[`LUT_LEN`] = d·r·([`LUT_LEN`]/‖r‖²)); when that table is not valid, the two α_i
+    /// bracketing α* are evaluated and the smaller distance kept (the α_i ascend: [`NoisyReferences`]
+    /// builds them from ascending SNRs). It equals the direct evaluation up to rounding (at a near-tie
+    /// of two α_i either may be taken; their distances then agree to rounding).
     pub fn accumulate(
         &self,
         table: &ReferenceTable<'_>,
@@ -139,6 +143,21 @@ impl CurveBuilder {
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let alphas = self.noisy.alphas();
             let n = alphas.len();
+            if self.noisy.nearest_ok() {
+                for (c, r) in curve.iter_mut().zip(row) {
+                    let r = [
+                        r[0] - noise_mag[0],
+                        r[1] - noise_mag[1],
+                        r[2] - noise_mag[2],
+                    ];
+                    let [m0, m1, m2, rr, sc] = row_constants(r);
+                    let m2dr = d[0] * m0 + d[1] * m1 + d[2] * m2;
+                    let a = alphas[self.noisy.nearest(m2dr * sc)];
+                    let best = dd + a * (a * rr + m2dr);
+                    *c += weight / (1.0 + sqrt_nonneg(best));
+                }
+                return;
+            }
             for (c, r) in curve.iter_mut().zip(row) {
                 let r = [
                     r[0] - noise_mag[0],
@@ -178,7 +197,8 @@ impl CurveBuilder {
 
     /// [`CurveBuilder::accumulate`] with the per-azimuth constants of row `fi` kept in `cache` (which
     /// must have been cleared since the table last changed): the same arithmetic in the same order, so
-    /// the curve is bit-identical, but the inner loop only does what depends on the peak.
+    /// the curve is bit-identical, but the inner loop only does what depends on the peak (no division:
+    /// [`LUT_LEN`]/‖r‖² is cached).
     pub fn accumulate_cached(
         &self,
         cache: &mut RowCache,
@@ -193,7 +213,7 @@ impl CurveBuilder {
         let fast = self.measure == SimilarityMeasure::Euclidean
             && !self.mean_free
             && self.noisy.mixing() != NoiseMixing::Power
-            && self.noisy.lut_ok()
+            && self.noisy.nearest_ok()
             && n >= 2
             && q <= ROW_CACHE_LEN;
         if !fast {
@@ -208,8 +228,7 @@ impl CurveBuilder {
                     r[1] - noise_mag[1],
                     r[2] - noise_mag[2],
                 ];
-                let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-                *e = [r[0], r[1], r[2], rr];
+                *e = row_constants(r);
             }
             cache.fi = fi;
         }
@@ -219,28 +238,19 @@ impl CurveBuilder {
             y[2] - noise_mag[2],
         ];
         let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        // Fixed-size copies: the indices below are masked into range, so no bounds checks.
-        let alphas: [f32; 16] = self.noisy.alphas_padded();
-        let lut = self.noisy.lut();
-        let last = n - 2;
+        // Fixed-size copies: the indices are masked into range, so no bounds checks.
+        let padded = self.noisy.alphas_padded();
+        let mut alphas = [padded[MAX_SNR_SETS - 1]; MAX_SNR_SETS + 1];
+        alphas[..MAX_SNR_SETS].copy_from_slice(&padded);
+        let mids = self.noisy.mids();
+        let near = self.noisy.near();
         for (c, e) in curve[..q].iter_mut().zip(&cache.rows[..q]) {
-            let [r0, r1, r2, rr] = *e;
-            let dr = d[0] * r0 + d[1] * r1 + d[2] * r2;
-            // `NoisyReferences::bracket`, table path, inlined.
-            let t = dr / rr;
-            let b = ((t * LUT_SCALE) as usize).min(LUT_MAX);
-            let lo = lut[b] as usize & 15;
-            let lo = if lo < last && alphas[(lo + 1) & 15] <= t {
-                lo + 1
-            } else {
-                lo
-            };
-            let (a, b) = (alphas[lo & 15], alphas[(lo + 1) & 15]);
-            let da = dd + a * (a * rr - 2.0 * dr);
-            let db = dd + b * (b * rr - 2.0 * dr);
-            let best = if db < da { db } else { da };
-            let best = if best > 0.0 { best } else { 0.0 };
-            *c += weight / (1.0 + sqrtf(best));
+            let [m0, m1, m2, rr, sc] = *e;
+            let m2dr = d[0] * m0 + d[1] * m1 + d[2] * m2;
+            // `NoisyReferences::nearest`, inlined (index ≤ 16; index n is a copy of α_{n−1}).
+            let a = alphas[nearest_in(near, mids, m2dr * sc)];
+            let best = dd + a * (a * rr + m2dr);
+            *c += weight / (1.0 + sqrt_nonneg(best));
         }
     }
 
@@ -266,6 +276,21 @@ impl CurveBuilder {
         }
         best
     }
+}
+
+/// The per-azimuth constants of the nearest-α fast path for r = Y_ref(q) − Y_η: −2r, ‖r‖² and
+/// −(128/2)/‖r‖². Then m = d·(−2r) = −2·d·r exactly (scaling by 2 is exact), the vertex of the parabola
+/// in buckets is α*·128 = m·(−64/‖r‖²), and ‖d − α·r‖² = ‖d‖² + α(α‖r‖² + m).
+#[inline(always)]
+fn row_constants(r: Feature) -> [f32; 5] {
+    let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    [
+        -2.0 * r[0],
+        -2.0 * r[1],
+        -2.0 * r[2],
+        rr,
+        -(LUT_SCALE / 2.0) / rr,
+    ]
 }
 
 #[cfg(test)]
