@@ -126,7 +126,7 @@ impl NoisyReferences {
         }
     }
 
-    /// For `ts` = α*·[`LUT_LEN`] (α* = d·r/‖r‖², the unconstrained best mix, see
+    /// For `ts` = α*·128 (α* = d·r/‖r‖², the unconstrained best mix, see
     /// [`crate::similarity::CurveBuilder::accumulate`]), the index of the α_i nearest to α*: as
     /// ‖d − α·r‖² = ‖r‖²(α − α*)² + const is symmetric about α*, that α_i gives the smallest distance
     /// (at an exact midpoint the upper one; any `ts`, also negative or NaN, gives a valid index).

@@ -130,7 +130,7 @@ impl CurveBuilder {
     /// ‖y − Y_i‖² = ‖d‖² − 2α_i·d·r + α_i²·‖r‖² with d = y − Y_η, r = Y_ref(q) − Y_η, and only the
     /// smallest distance needs a square root. That distance is a parabola in α_i, symmetric about its
     /// vertex α* = d·r/‖r‖², so the best α_i is the one nearest to α* ([`NoisyReferences::nearest`],
-    /// evaluated at α*·[`LUT_LEN`] = d·r·([`LUT_LEN`]/‖r‖²)); when that table is not valid, the two α_i
+    /// evaluated at α*·128, computed as (−2r·d)·(−64/‖r‖²)); when that table is not valid, the two α_i
     /// bracketing α* are evaluated and the smaller distance kept (the α_i ascend: [`NoisyReferences`]
     /// builds them from ascending SNRs). It equals the direct evaluation up to rounding (at a near-tie
     /// of two α_i either may be taken; their distances then agree to rounding).
@@ -212,7 +212,7 @@ impl CurveBuilder {
     /// [`CurveBuilder::accumulate`] with the per-azimuth constants of row `fi` kept in `cache` (which
     /// must have been cleared since the table last changed): the same arithmetic in the same order, so
     /// the curve is bit-identical, but the inner loop only does what depends on the peak (no division:
-    /// [`LUT_LEN`]/‖r‖² is cached).
+    /// 128/‖r‖² is cached).
     pub fn accumulate_cached(
         &self,
         cache: &mut RowCache,
