@@ -46,7 +46,7 @@ printf '| stage | instructions per hop | share |\n|---|---:|---:|\n'
 sum=0
 names=(front-end spectra peaks similarity reliability)
 descr=("input guard, ×4 decimation, framing (1024 input samples × 4 ch)"
-       "omni windowed 512-point real FFT + 3 cardioid frames windowed and 8-folded"
+       "omni windowed 512-point real FFT + 3 cardioid frames windowed and 16-folded"
        "omni power spectrum + peak picking"
        "cardioid DFT at the peaks, features, similarity curve (noisy references)"
        "curve variance, reliability filter, 2 × interpolated argmax")

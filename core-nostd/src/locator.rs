@@ -28,7 +28,7 @@ use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance, CurveFilter};
-use crate::similarity::{CurveBuilder, RowCache};
+use crate::similarity::{CurveBuilder, PeakFeature, RowCache};
 use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
@@ -452,6 +452,11 @@ impl<'t> Locator<'t> {
         curve.fill(0.0);
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
+        let mut used = [PeakFeature {
+            fi: 0,
+            y: [0.0; 3],
+            weight: 0.0,
+        }; MAX_PEAKS];
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
             let p0 = self.omni_power[k];
@@ -471,12 +476,15 @@ impl<'t> Locator<'t> {
                 continue;
             }
             let fi = self.bin_rows[k] as usize;
-            let cache = &mut self.row_cache;
-            self.curves
-                .accumulate_cached(cache, &self.table, fi, y, w, curve);
+            let Some(slot) = used.get_mut(n_used) else {
+                break;
+            };
+            *slot = PeakFeature { fi, y, weight: w };
             weight_sum += w;
             n_used += 1;
         }
+        self.curves
+            .accumulate_peaks(&mut self.row_cache, &self.table, &used[..n_used], curve);
         if ds.onset_exponent > 0.0 {
             let (lo, hi) = self.picker.band();
             self.onset.update(ds.onset_pole, &self.omni_power, lo, hi);

@@ -32,6 +32,14 @@ pub struct NoisyReferences {
     /// α_i < b/[`LUT_LEN`] (0 if none), valid when `lut_ok` (no bucket holds two α_i).
     lut: [u8; LUT_LEN],
     lut_ok: bool,
+    /// Midpoints ½(α_i + α_{i+1})·[`LUT_LEN`] for i ≤ n − 2, then +∞, as `f32` bits (positive, so
+    /// they order like the floats): the nearest α_i to α* is α_j with j the number of midpoints
+    /// ≤ α*·[`LUT_LEN`] (see [`NoisyReferences::nearest`]).
+    mids: [i32; MAX_SNR_SETS],
+    /// For bucket b (see `lut`): the number of midpoints ≤ b, valid when `near_ok` (no bucket holds
+    /// two midpoints, the first midpoint is positive).
+    near: [u8; LUT_LEN],
+    near_ok: bool,
 }
 
 /// Buckets of the bracket table of [`NoisyReferences::bracket`].
@@ -47,6 +55,9 @@ impl NoisyReferences {
             n: 1,
             lut: [0; LUT_LEN],
             lut_ok: false,
+            mids: [INF_BITS; MAX_SNR_SETS],
+            near: [0; LUT_LEN],
+            near_ok: false,
         }
     }
 
@@ -77,6 +88,9 @@ impl NoisyReferences {
             };
         }
         s.n = count;
+        // Padding repeats the last weight, so that index n (see `nearest_in`) means α_{n−1}.
+        let last = s.alphas[count - 1];
+        s.alphas[count..].fill(last);
         s.build_lut();
         Ok(s)
     }
@@ -94,6 +108,52 @@ impl NoisyReferences {
             let start = b as f32 / LUT_LEN as f32;
             *e = a[..n - 1].iter().rposition(|x| *x < start).unwrap_or(0) as u8;
         }
+        let half = LUT_LEN as f32 / 2.0;
+        let mut mids = [f32::INFINITY; MAX_SNR_SETS];
+        for (m, w) in mids.iter_mut().zip(a.windows(2)) {
+            *m = (w[0] + w[1]) * half;
+        }
+        self.mids = mids.map(|m| m.to_bits() as i32);
+        let mids = &mids[..n - 1];
+        let bucket = |m: f32| (m as i32).clamp(0, LUT_LEN as i32 - 1);
+        // n < 16: `nearest_in` may return n (for ts = +∞), which must stay a valid slot.
+        self.near_ok = ascending
+            && n < MAX_SNR_SETS
+            && mids[0] > 0.0
+            && mids.windows(2).all(|w| bucket(w[0]) < bucket(w[1]));
+        for (b, e) in self.near.iter_mut().enumerate() {
+            *e = mids.iter().filter(|m| **m <= b as f32).count() as u8;
+        }
+    }
+
+    /// For `ts` = α*·128 (α* = d·r/‖r‖², the unconstrained best mix, see
+    /// [`crate::similarity::CurveBuilder::accumulate`]), the index of the α_i nearest to α*: as
+    /// ‖d − α·r‖² = ‖r‖²(α − α*)² + const is symmetric about α*, that α_i gives the smallest distance
+    /// (at an exact midpoint the upper one; any `ts`, also negative or NaN, gives a valid index).
+    /// Needs [`NoisyReferences::nearest_ok`]. One bucket look-up and one midpoint comparison.
+    #[inline(always)]
+    #[must_use]
+    pub fn nearest(&self, ts: f32) -> usize {
+        nearest_in(&self.near, &self.mids, ts).min(self.n - 1)
+    }
+
+    /// Whether [`NoisyReferences::nearest`] is valid (2 ≤ n < 16 ascending α_i, at most one midpoint
+    /// per bucket).
+    #[must_use]
+    pub fn nearest_ok(&self) -> bool {
+        self.near_ok
+    }
+
+    /// The midpoint table of [`NoisyReferences::nearest`] (bits; +∞ past the last midpoint).
+    #[must_use]
+    pub(crate) fn mids(&self) -> &[i32; MAX_SNR_SETS] {
+        &self.mids
+    }
+
+    /// The bucket table of [`NoisyReferences::nearest`].
+    #[must_use]
+    pub(crate) fn near(&self) -> &[u8; LUT_LEN] {
+        &self.near
     }
 
     /// For the weight α* = `dr / rr` of the unconstrained best mix, the index i ≤ n − 2 such that
@@ -127,19 +187,7 @@ impl NoisyReferences {
         }
     }
 
-    /// Whether [`NoisyReferences::bracket`] uses its bucket table (n ≥ 2 ascending, spaced α_i).
-    #[must_use]
-    pub(crate) fn lut_ok(&self) -> bool {
-        self.lut_ok
-    }
-
-    /// The bucket table of [`NoisyReferences::bracket`].
-    #[must_use]
-    pub(crate) fn lut(&self) -> &[u8; LUT_LEN] {
-        &self.lut
-    }
-
-    /// All α_i slots (the first n are the weights; the rest padding).
+    /// All α_i slots (the first n are the weights; the rest repeat α_{n−1}).
     #[must_use]
     pub(crate) fn alphas_padded(&self) -> [f32; MAX_SNR_SETS] {
         self.alphas
@@ -179,6 +227,22 @@ impl NoisyReferences {
     }
 }
 
+/// `f32::INFINITY.to_bits()`.
+const INF_BITS: i32 = 0x7f80_0000;
+
+/// [`NoisyReferences::nearest`] on its tables, without bounds checks (the bucket is clamped, the
+/// index masked): the result is ≤ 16. `near` ≤ n − 1 and `mids` is +∞ from n − 1 on, so the result is
+/// ≤ n − 1, except n for ts = +∞ or a positive NaN (the padded α slots repeat α_{n−1}, so index n means
+/// the same weight). The midpoint comparison is on the bits as `i32`: for a positive midpoint that is
+/// `ts ≥ mid` for every ts but a positive NaN (negative ts and −0 have negative bits).
+#[inline(always)]
+pub(crate) fn nearest_in(near: &[u8; LUT_LEN], mids: &[i32; MAX_SNR_SETS], ts: f32) -> usize {
+    // `as` saturates (NaN → 0); the clamp also maps negative ts to bucket 0.
+    let b = (ts as i32).clamp(0, LUT_LEN as i32 - 1) as usize;
+    let lo = near[b & (LUT_LEN - 1)] as usize & (MAX_SNR_SETS - 1);
+    lo + usize::from(ts.to_bits() as i32 >= mids[lo])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,5 +268,39 @@ mod tests {
                 .alphas(),
             &[1.0]
         );
+    }
+
+    /// `nearest` equals a linear search for the smallest |α_i − α*| on a dense grid of α*, including
+    /// values outside [0, 1].
+    #[test]
+    fn nearest_is_the_closest_alpha() {
+        for mixing in [NoiseMixing::Magnitude, NoiseMixing::Power] {
+            for (from, to, step) in [(-30.0, 40.0, 10.0), (-10.0, 20.0, 5.0), (0.0, 10.0, 10.0)] {
+                let n = NoisyReferences::new(mixing, from, to, step).unwrap();
+                // The thesis sets (magnitude mixing) must take the table path; power mixing packs
+                // its high-SNR weights too close to 1 for it at −30…40 dB.
+                if mixing == NoiseMixing::Magnitude {
+                    assert!(n.nearest_ok(), "{from} {to} {step}");
+                }
+                if !n.nearest_ok() {
+                    continue;
+                }
+                let a = n.alphas();
+                for k in -2000..=4000 {
+                    let t = k as f32 / 2000.0 + 1e-4;
+                    let ts = t * LUT_LEN as f32;
+                    let j = n.nearest(ts);
+                    let dj = (a[j] - t).abs();
+                    let best = a
+                        .iter()
+                        .map(|x| (x - t).abs())
+                        .fold(f32::INFINITY, f32::min);
+                    assert!(dj <= best + 1e-6, "{mixing:?} t {t} got {j}");
+                }
+                for ts in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, -1e30] {
+                    assert!(n.nearest(ts) < a.len());
+                }
+            }
+        }
     }
 }

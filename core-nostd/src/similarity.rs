@@ -1,13 +1,13 @@
 //! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
-use crate::fast_math::sqrtf;
-use crate::noisy_reference::{NoiseMixing, NoisyReferences, LUT_LEN};
+use crate::fast_math::{sqrt_nonneg, sqrt_nonneg2, sqrtf};
+use crate::noisy_reference::{nearest_in, NoiseMixing, NoisyReferences, LUT_LEN};
 
-/// Bucket scale and last bucket of the bracket table.
+/// Bucket scale of the α tables of [`NoisyReferences`].
 const LUT_SCALE: f32 = LUT_LEN as f32;
-const LUT_MAX: usize = LUT_LEN - 1;
 use crate::reference_table::{Feature, ReferenceTable};
+use crate::MAX_SNR_SETS;
 
 /// Similarity measure.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,18 +60,22 @@ pub fn mean_free(y: Feature) -> Feature {
     [y[0] - m + 0.5, y[1] - m + 0.5, y[2] - m + 0.5]
 }
 
+/// Most peaks of one row that [`CurveBuilder::accumulate_peaks`] takes in one pass.
+const GROUP: usize = 2;
+
 /// Azimuths a [`RowCache`] holds (tables with more azimuths take the uncached path).
 pub const ROW_CACHE_LEN: usize = 128;
 
 /// The per-azimuth constants of one frequency row of the fast Euclidean path of
-/// [`CurveBuilder::accumulate_cached`]: r = Y_ref(q) − Y_η and ‖r‖², computed once per row instead of
-/// once per peak and azimuth.
+/// [`CurveBuilder::accumulate_cached`]: with r = Y_ref(q) − Y_η, the vector −2r, ‖r‖² and
+/// −64/‖r‖² (−½·128/‖r‖², 128 buckets of the α table), computed once per row instead of once per peak
+/// and azimuth.
 #[derive(Debug, Clone, Copy)]
 pub struct RowCache {
     /// Row the entries belong to (`usize::MAX`: none).
     fi: usize,
-    /// Per azimuth: r₀, r₁, r₂, ‖r‖².
-    rows: [[f32; 4]; ROW_CACHE_LEN],
+    /// Per azimuth: −2r₀, −2r₁, −2r₂, ‖r‖², −64/‖r‖² (see [`row_constants`]).
+    rows: [[f32; 5]; ROW_CACHE_LEN],
 }
 
 impl RowCache {
@@ -80,7 +84,7 @@ impl RowCache {
     pub const fn new() -> Self {
         Self {
             fi: usize::MAX,
-            rows: [[0.0; 4]; ROW_CACHE_LEN],
+            rows: [[0.0; 5]; ROW_CACHE_LEN],
         }
     }
 
@@ -94,6 +98,17 @@ impl Default for RowCache {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// One picked peak as the similarity curve needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeakFeature {
+    /// Frequency row of the reference table.
+    pub fi: usize,
+    /// Observed features.
+    pub y: Feature,
+    /// Weight of the peak in the mean curve.
+    pub weight: f32,
 }
 
 /// How one peak's similarity row is computed.
@@ -113,9 +128,12 @@ impl CurveBuilder {
     /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed
     /// references lie on the segment between Y_ref(q) and Y_η, so
     /// ‖y − Y_i‖² = ‖d‖² − 2α_i·d·r + α_i²·‖r‖² with d = y − Y_η, r = Y_ref(q) − Y_η, and only the
-    /// smallest distance needs a square root. That distance is a parabola in α_i, so only the two α_i
-    /// bracketing its vertex are evaluated (the α_i ascend: [`NoisyReferences`] builds them from ascending
-    /// SNRs). It equals the direct evaluation up to rounding.
+    /// smallest distance needs a square root. That distance is a parabola in α_i, symmetric about its
+    /// vertex α* = d·r/‖r‖², so the best α_i is the one nearest to α* ([`NoisyReferences::nearest`],
+    /// evaluated at α*·128, computed as (−2r·d)·(−64/‖r‖²)); when that table is not valid, the two α_i
+    /// bracketing α* are evaluated and the smaller distance kept (the α_i ascend: [`NoisyReferences`]
+    /// builds them from ascending SNRs). It equals the direct evaluation up to rounding (at a near-tie
+    /// of two α_i either may be taken; their distances then agree to rounding).
     pub fn accumulate(
         &self,
         table: &ReferenceTable<'_>,
@@ -139,6 +157,21 @@ impl CurveBuilder {
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let alphas = self.noisy.alphas();
             let n = alphas.len();
+            if self.noisy.nearest_ok() {
+                for (c, r) in curve.iter_mut().zip(row) {
+                    let r = [
+                        r[0] - noise_mag[0],
+                        r[1] - noise_mag[1],
+                        r[2] - noise_mag[2],
+                    ];
+                    let [m0, m1, m2, rr, sc] = row_constants(r);
+                    let m2dr = d[0] * m0 + d[1] * m1 + d[2] * m2;
+                    let a = alphas[self.noisy.nearest(m2dr * sc)];
+                    let best = dd + a * (a * rr + m2dr);
+                    *c += weight / (1.0 + sqrt_nonneg(best));
+                }
+                return;
+            }
             for (c, r) in curve.iter_mut().zip(row) {
                 let r = [
                     r[0] - noise_mag[0],
@@ -178,7 +211,8 @@ impl CurveBuilder {
 
     /// [`CurveBuilder::accumulate`] with the per-azimuth constants of row `fi` kept in `cache` (which
     /// must have been cleared since the table last changed): the same arithmetic in the same order, so
-    /// the curve is bit-identical, but the inner loop only does what depends on the peak.
+    /// the curve is bit-identical, but the inner loop only does what depends on the peak (no division:
+    /// 128/‖r‖² is cached).
     pub fn accumulate_cached(
         &self,
         cache: &mut RowCache,
@@ -188,59 +222,129 @@ impl CurveBuilder {
         weight: f32,
         curve: &mut [f32],
     ) {
+        let Some(q) = self.cached_len(table, curve) else {
+            self.accumulate(table, fi, y, weight, curve);
+            return;
+        };
+        self.fill_cache(cache, table, fi);
+        let noise_mag = table.noise_magnitude(fi);
+        self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q]);
+    }
+
+    /// [`CurveBuilder::accumulate_cached`] for each peak in order, with two consecutive peaks of the
+    /// same frequency row taken in one pass over the azimuths (each azimuth's constants loaded and its
+    /// curve value read and written once for both). The additions into each `curve[q]` happen in the
+    /// same order, so the curve is bit-identical to calling [`CurveBuilder::accumulate_cached`] per peak.
+    pub fn accumulate_peaks(
+        &self,
+        cache: &mut RowCache,
+        table: &ReferenceTable<'_>,
+        peaks: &[PeakFeature],
+        curve: &mut [f32],
+    ) {
+        let Some(q) = self.cached_len(table, curve) else {
+            for p in peaks {
+                self.accumulate(table, p.fi, p.y, p.weight, curve);
+            }
+            return;
+        };
+        let curve = &mut curve[..q];
+        let mut rest = peaks;
+        while let Some(p) = rest.first() {
+            self.fill_cache(cache, table, p.fi);
+            let noise_mag = table.noise_magnitude(p.fi);
+            let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
+            if run == 2 {
+                let (p2, ws) = (rest[1], [p.weight, rest[1].weight]);
+                self.accumulate_group(cache, noise_mag, [p.y, p2.y], ws, curve);
+            } else {
+                self.accumulate_group(cache, noise_mag, [p.y], [p.weight], curve);
+            }
+            rest = &rest[run..];
+        }
+    }
+
+    /// The number of curve entries to update when the cached nearest-α path applies (Euclidean,
+    /// magnitude mixing, valid tables, at most [`ROW_CACHE_LEN`] azimuths), else `None`.
+    fn cached_len(&self, table: &ReferenceTable<'_>, curve: &[f32]) -> Option<usize> {
         let q = table.num_azimuths().min(curve.len());
-        let n = self.noisy.alphas().len();
-        let fast = self.measure == SimilarityMeasure::Euclidean
+        let ok = self.measure == SimilarityMeasure::Euclidean
             && !self.mean_free
             && self.noisy.mixing() != NoiseMixing::Power
-            && self.noisy.lut_ok()
-            && n >= 2
+            && self.noisy.nearest_ok()
+            && self.noisy.alphas().len() >= 2
             && q <= ROW_CACHE_LEN;
-        if !fast {
-            self.accumulate(table, fi, y, weight, curve);
+        ok.then_some(q)
+    }
+
+    /// Makes `cache` hold row `fi`.
+    fn fill_cache(&self, cache: &mut RowCache, table: &ReferenceTable<'_>, fi: usize) {
+        if cache.fi == fi {
             return;
         }
         let noise_mag = table.noise_magnitude(fi);
-        if cache.fi != fi {
-            for (e, r) in cache.rows.iter_mut().zip(table.row(fi)) {
-                let r = [
-                    r[0] - noise_mag[0],
-                    r[1] - noise_mag[1],
-                    r[2] - noise_mag[2],
-                ];
-                let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-                *e = [r[0], r[1], r[2], rr];
-            }
-            cache.fi = fi;
+        for (e, r) in cache.rows.iter_mut().zip(table.row(fi)) {
+            let r = [
+                r[0] - noise_mag[0],
+                r[1] - noise_mag[1],
+                r[2] - noise_mag[2],
+            ];
+            *e = row_constants(r);
         }
-        let d = [
-            y[0] - noise_mag[0],
-            y[1] - noise_mag[1],
-            y[2] - noise_mag[2],
-        ];
-        let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        // Fixed-size copies: the indices below are masked into range, so no bounds checks.
-        let alphas: [f32; 16] = self.noisy.alphas_padded();
-        let lut = self.noisy.lut();
-        let last = n - 2;
-        for (c, e) in curve[..q].iter_mut().zip(&cache.rows[..q]) {
-            let [r0, r1, r2, rr] = *e;
-            let dr = d[0] * r0 + d[1] * r1 + d[2] * r2;
-            // `NoisyReferences::bracket`, table path, inlined.
-            let t = dr / rr;
-            let b = ((t * LUT_SCALE) as usize).min(LUT_MAX);
-            let lo = lut[b] as usize & 15;
-            let lo = if lo < last && alphas[(lo + 1) & 15] <= t {
-                lo + 1
-            } else {
-                lo
-            };
-            let (a, b) = (alphas[lo & 15], alphas[(lo + 1) & 15]);
-            let da = dd + a * (a * rr - 2.0 * dr);
-            let db = dd + b * (b * rr - 2.0 * dr);
-            let best = if db < da { db } else { da };
-            let best = if best > 0.0 { best } else { 0.0 };
-            *c += weight / (1.0 + sqrtf(best));
+        cache.fi = fi;
+    }
+
+    /// The inner loop of the cached path for G peaks of the row in `cache` (Y_η = `noise_mag`): per
+    /// azimuth, `curve[q] += w_g / (1 + min_i ‖y_g − Y_i‖)` for g = 0, 1, … in this order.
+    #[inline(always)]
+    fn accumulate_group<const G: usize>(
+        &self,
+        cache: &RowCache,
+        noise_mag: Feature,
+        ys: [Feature; G],
+        weights: [f32; G],
+        curve: &mut [f32],
+    ) {
+        let d: [Feature; G] = core::array::from_fn(|g| {
+            let y = ys[g];
+            [
+                y[0] - noise_mag[0],
+                y[1] - noise_mag[1],
+                y[2] - noise_mag[2],
+            ]
+        });
+        let dd: [f32; G] = core::array::from_fn(|g| {
+            let d = d[g];
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        });
+        // Fixed-size copies: the indices are masked into range, so no bounds checks.
+        let padded = self.noisy.alphas_padded();
+        let mut alphas = [padded[MAX_SNR_SETS - 1]; MAX_SNR_SETS + 1];
+        alphas[..MAX_SNR_SETS].copy_from_slice(&padded);
+        let mids = self.noisy.mids();
+        let near = self.noisy.near();
+        for (c, e) in curve.iter_mut().zip(&cache.rows) {
+            let [m0, m1, m2, rr, sc] = *e;
+            let best: [f32; G] = core::array::from_fn(|g| {
+                let d = d[g];
+                let m2dr = d[0] * m0 + d[1] * m1 + d[2] * m2;
+                // `NoisyReferences::nearest`, inlined (index ≤ 16; index n is a copy of α_{n−1}).
+                let a = alphas[nearest_in(near, mids, m2dr * sc)];
+                dd[g] + a * (a * rr + m2dr)
+            });
+            // Square roots two at a time (one register transfer each way on the M4F).
+            let mut acc = *c;
+            for g in (0..G).step_by(2) {
+                let root = if g + 1 < G {
+                    sqrt_nonneg2([best[g], best[g + 1]])
+                } else {
+                    [sqrt_nonneg(best[g]), 0.0]
+                };
+                for (h, r) in (g..G.min(g + 2)).zip(root) {
+                    acc += weights[h] / (1.0 + r);
+                }
+            }
+            *c = acc;
         }
     }
 
@@ -266,6 +370,21 @@ impl CurveBuilder {
         }
         best
     }
+}
+
+/// The per-azimuth constants of the nearest-α fast path for r = Y_ref(q) − Y_η: −2r, ‖r‖² and
+/// −(128/2)/‖r‖². Then m = d·(−2r) = −2·d·r exactly (scaling by 2 is exact), the vertex of the parabola
+/// in buckets is α*·128 = m·(−64/‖r‖²), and ‖d − α·r‖² = ‖d‖² + α(α‖r‖² + m).
+#[inline(always)]
+fn row_constants(r: Feature) -> [f32; 5] {
+    let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    [
+        -2.0 * r[0],
+        -2.0 * r[1],
+        -2.0 * r[2],
+        rr,
+        -(LUT_SCALE / 2.0) / rr,
+    ]
 }
 
 #[cfg(test)]
@@ -318,6 +437,64 @@ mod tests {
                     let direct = b.max_similarity(y, *r, [0.5; 3], [0.5; 3]);
                     assert!((fast[q] - direct).abs() < 2e-6, "{mixing:?} {y:?} q {q}");
                 }
+            }
+        }
+    }
+
+    /// A batch of peaks (runs of equal and differing rows, weights ≠ 1) gives the bit-identical curve
+    /// of one `accumulate_cached` call per peak, and both match the direct evaluation.
+    #[test]
+    fn peak_batches_equal_single_peaks() {
+        let ideal = ReferenceTable::ideal_5deg();
+        let q = ideal.num_azimuths();
+        // Three rows: the ideal row, scaled by 0.8 and 1.1 (other noise features per row).
+        let mut features = [[0.0f32; 3]; 3 * 72];
+        for (f, scale) in [1.0f32, 0.8, 1.1].iter().enumerate() {
+            for (o, r) in features[f * q..(f + 1) * q].iter_mut().zip(ideal.row(0)) {
+                *o = r.map(|v| v * scale);
+            }
+        }
+        let noise = [[0.5f32; 3], [0.4, 0.5, 0.6], [0.7, 0.3, 0.5]];
+        let freqs = [500.0f32, 1000.0, 2000.0];
+        let table =
+            ReferenceTable::new(ideal.azimuths_deg(), &freqs, &features, &noise, &noise).unwrap();
+        let b = CurveBuilder {
+            measure: SimilarityMeasure::Euclidean,
+            noisy: NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap(),
+            mean_free: false,
+        };
+        let mut seed = 5u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let rows = [0usize, 0, 0, 1, 2, 2, 0, 1, 1, 1, 1, 2];
+        let peaks: [PeakFeature; 12] = core::array::from_fn(|i| PeakFeature {
+            fi: rows[i],
+            y: [rnd() * 1.5, rnd() * 1.5, rnd() * 1.5],
+            weight: 0.2 + rnd(),
+        });
+        for n in 0..=peaks.len() {
+            let (mut batch, mut single) = ([0.125f32; 72], [0.125f32; 72]);
+            let (mut cache_a, mut cache_b) = (RowCache::new(), RowCache::new());
+            b.accumulate_peaks(&mut cache_a, &table, &peaks[..n], &mut batch);
+            for p in &peaks[..n] {
+                b.accumulate_cached(&mut cache_b, &table, p.fi, p.y, p.weight, &mut single);
+            }
+            assert_eq!(
+                batch.map(f32::to_bits),
+                single.map(f32::to_bits),
+                "{n} peaks"
+            );
+            let mut direct = [0.125f32; 72];
+            for p in &peaks[..n] {
+                for (c, r) in direct.iter_mut().zip(table.row(p.fi)) {
+                    let nm = table.noise_magnitude(p.fi);
+                    *c += p.weight * b.max_similarity(p.y, *r, nm, nm);
+                }
+            }
+            for (x, y) in batch.iter().zip(direct) {
+                assert!((x - y).abs() < 1e-5, "{n} peaks: {x} vs {y}");
             }
         }
     }

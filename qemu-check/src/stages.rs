@@ -12,9 +12,11 @@ use cma_core::interpolation::argmax_parabolic;
 use cma_core::noisy_reference::NoisyReferences;
 use cma_core::peak_picker::{PeakPicker, Peaks};
 use cma_core::reliability::{curve_variance, CurveFilter};
-use cma_core::similarity::{CurveBuilder, RowCache};
+use cma_core::similarity::{CurveBuilder, PeakFeature, RowCache};
 use cma_core::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
-use cma_core::{LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, NUM_BINS};
+use cma_core::{
+    LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS,
+};
 use core::hint::black_box;
 use microfft::Complex32;
 
@@ -193,6 +195,12 @@ impl Bench {
         let curve = &mut self.curve[..q];
         curve.fill(0.0);
         let mut weight_sum = 0.0f32;
+        let mut used = [PeakFeature {
+            fi: 0,
+            y: [0.0; 3],
+            weight: 0.0,
+        }; MAX_PEAKS];
+        let mut n_used = 0;
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
             let [_, f1, f2, f3] = black_box(&self.spectra);
@@ -201,10 +209,16 @@ impl Bench {
             let Some(y) = feature_from_powers(self.omni_power[k], pc) else {
                 continue;
             };
-            self.curves
-                .accumulate_cached(&mut self.row_cache, &self.table, 0, y, 1.0, curve);
+            used[n_used] = PeakFeature {
+                fi: 0,
+                y,
+                weight: 1.0,
+            };
+            n_used += 1;
             weight_sum += 1.0;
         }
+        self.curves
+            .accumulate_peaks(&mut self.row_cache, &self.table, &used[..n_used], curve);
         let inv = 1.0 / weight_sum;
         for c in curve.iter_mut() {
             *c *= inv;
