@@ -37,6 +37,7 @@
 pub mod angle;
 pub mod beamformer;
 pub mod bformat;
+pub mod block_decimator;
 pub mod cartesian_filter;
 pub mod combination;
 pub mod config;
