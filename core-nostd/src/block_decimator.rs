@@ -112,14 +112,15 @@ impl BlockDecimator {
             let (body, tail) = rest.split_at(groups * factor);
             if groups > 0 {
                 let mut outs = out.iter_mut().map(|o| &mut o[n..n + groups]);
-                for c0 in (0..CHANNELS).step_by(L) {
-                    let o: [&mut [f32]; L] =
-                        core::array::from_fn(|_| outs.next().unwrap_or_default());
-                    let st = &mut self.state.stages;
-                    match cascade {
-                        Cascade::Long => groups_long(st, c0, body, o),
-                        Cascade::ShortLong => groups_short_long(st, c0, body, o),
-                        Cascade::ShortShortLong => groups_short_short_long(st, c0, body, o),
+                let st = &mut self.state.stages;
+                if L == CHANNELS {
+                    // One pass with a constant first channel (whole sample frames as vectors).
+                    let o = core::array::from_fn(|_| outs.next().unwrap_or_default());
+                    run_groups::<L>(cascade, st, 0, body, o);
+                } else {
+                    for c0 in (0..CHANNELS).step_by(L) {
+                        let o = core::array::from_fn(|_| outs.next().unwrap_or_default());
+                        run_groups::<L>(cascade, st, c0, body, o);
                     }
                 }
                 n += groups;
@@ -147,6 +148,31 @@ impl BlockDecimator {
             }
             *n += 1;
         }
+    }
+}
+
+/// `c0` (a multiple of `L`) as the compiler can use it: `c0 & (CHANNELS − L)` is `c0` for every valid
+/// first channel, provably at most `CHANNELS − L` (no bounds checks), and the constant 0 for
+/// `L = CHANNELS`, so that whole sample frames load as vectors.
+#[inline(always)]
+fn first_lane<const L: usize>(c0: usize) -> usize {
+    const { assert!(L > 0 && CHANNELS % L == 0 && L.is_power_of_two()) };
+    c0 & (CHANNELS - L)
+}
+
+/// Whole groups of `input` through `cascade`, channels `c0..c0 + L`.
+#[inline(always)]
+fn run_groups<const L: usize>(
+    cascade: Cascade,
+    st: &mut [HalfbandState<CHANNELS>; 3],
+    c0: usize,
+    input: &[[f32; CHANNELS]],
+    out: [&mut [f32]; L],
+) {
+    match cascade {
+        Cascade::Long => groups_long(st, c0, input, out),
+        Cascade::ShortLong => groups_short_long(st, c0, input, out),
+        Cascade::ShortShortLong => groups_short_short_long(st, c0, input, out),
     }
 }
 
@@ -202,17 +228,19 @@ fn put<const L: usize>(out: &mut [&mut [f32]; L], g: usize, v: [f32; L]) {
     }
 }
 
+// The kernels are functions of their own: vectorised on their own (x86_64), the four channels of a
+// section stay one vector; inlined into the front end, the vectoriser grouped lanes of different
+// sections together. One call per piece and channel group costs nothing measurable.
+
 /// Whole groups of 2 input sample frames through a long stage, channels `c0..c0 + L`.
-#[inline(always)]
+#[inline(never)]
 fn groups_long<const L: usize>(
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
 ) {
-    if c0 + L > CHANNELS {
-        return;
-    }
+    let c0 = first_lane::<L>(c0);
     let groups = input.len() / 2;
     let mut out = out.map(|o| &mut o[..groups]);
     let mut s0 = Lanes::<L>::load(&st[0], c0);
@@ -224,16 +252,14 @@ fn groups_long<const L: usize>(
 }
 
 /// Whole groups of 4 input sample frames through a short and a long stage, channels `c0..c0 + L`.
-#[inline(always)]
+#[inline(never)]
 fn groups_short_long<const L: usize>(
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
 ) {
-    if c0 + L > CHANNELS {
-        return;
-    }
+    let c0 = first_lane::<L>(c0);
     let groups = input.len() / 4;
     let mut out = out.map(|o| &mut o[..groups]);
     let mut s0 = Lanes::<L>::load(&st[0], c0);
@@ -250,16 +276,14 @@ fn groups_short_long<const L: usize>(
 
 /// Whole groups of 8 input sample frames through two short stages and a long one, channels
 /// `c0..c0 + L`.
-#[inline(always)]
+#[inline(never)]
 fn groups_short_short_long<const L: usize>(
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
 ) {
-    if c0 + L > CHANNELS {
-        return;
-    }
+    let c0 = first_lane::<L>(c0);
     let groups = input.len() / 8;
     let mut out = out.map(|o| &mut o[..groups]);
     let mut s0 = Lanes::<L>::load(&st[0], c0);
