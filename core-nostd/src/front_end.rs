@@ -3,7 +3,8 @@
 //! [`FrontEnd::feed`] takes up to [`PIECE`] sample frames at a time, never past the sample that
 //! completes an analysis frame, so an analysis can run between two calls exactly where the per-sample
 //! pipeline would run it. Within a piece it checks the interleaved input once
-//! ([`InputGuard::clean_block`]: the piece itself when nothing needs cleaning, else a cleaned copy),
+//! ([`InputGuard::clean_block`]: the piece itself when nothing needs cleaning, else a cleaned copy of
+//! at most 64 sample frames, and the rest of the piece waits for the next call),
 //! runs all half-band stages over it in one pass ([`BlockDecimator`]) and writes the last stage's
 //! outputs straight into the [`Framer`]. The result does not depend on how the input is split into
 //! blocks.
@@ -15,6 +16,9 @@ use crate::framer::Framer;
 use crate::input_guard::{InputGuard, InputGuardState};
 use crate::{CHANNELS, FRAME_LEN};
 
+/// Sample frames cleaned at a time when a piece needs cleaning (a rare, slower path; a small copy).
+const CLEAN_PIECE: usize = 64;
+
 /// Guard, decimator and framer with their state.
 #[derive(Debug, Clone)]
 pub struct FrontEnd {
@@ -22,8 +26,8 @@ pub struct FrontEnd {
     guard_state: InputGuardState,
     decimator: Decimator,
     lines: BlockDecimator,
-    /// The cleaned copy of a piece that needed cleaning.
-    scratch: [[f32; CHANNELS]; PIECE],
+    /// The cleaned copy of (the start of) a piece that needed cleaning.
+    scratch: [[f32; CHANNELS]; CLEAN_PIECE],
     /// Input sample frames so far, modulo the decimation factor.
     phase: usize,
     framer: Framer,
@@ -38,7 +42,7 @@ impl FrontEnd {
             guard_state: InputGuardState::new(),
             decimator,
             lines: BlockDecimator::new(),
-            scratch: [[0.0; CHANNELS]; PIECE],
+            scratch: [[0.0; CHANNELS]; CLEAN_PIECE],
             phase: 0,
             framer: Framer::new(),
         }
@@ -73,6 +77,7 @@ impl FrontEnd {
         let block = self
             .guard
             .clean_block(&mut self.guard_state, &block[..len], &mut self.scratch);
+        let len = block.len();
         let mut free = self.framer.free_mut();
         let produced = if factor == 1 {
             for (i, x) in block.iter().enumerate() {

@@ -50,12 +50,11 @@ impl InputGuard {
         }
     }
 
-    /// [`InputGuard::process`] on every sample frame of `block`: returns the cleaned sample frames,
-    /// `block` itself when nothing needs cleaning (the common case: one integer test per value), else
-    /// the cleaned copy in `scratch[..block.len()]`. The countdowns end as after the per-sample calls.
-    ///
-    /// # Panics
-    /// If `scratch` is shorter than `block` and something needs cleaning.
+    /// [`InputGuard::process`] on the sample frames at the start of `block`; returns them cleaned:
+    /// all of `block` itself when nothing needs cleaning (the common case: one integer test per value,
+    /// no copy), else a cleaned copy of its first `scratch.len()` frames (or fewer, if `block` is
+    /// shorter) in `scratch`. The countdowns end as after the per-sample calls on the returned frames;
+    /// the caller continues with the rest of `block`.
     #[inline]
     pub fn clean_block<'a>(
         &self,
@@ -70,6 +69,7 @@ impl InputGuard {
             state.nonfinite_hold = state.nonfinite_hold.saturating_sub(n);
             return block;
         }
+        let n = n.min(scratch.len());
         let out = &mut scratch[..n];
         // Index (+1) of the last sample frame with a clipped / a non-finite value, 0 for none.
         let mut last_clip = 0usize;
@@ -178,20 +178,26 @@ mod tests {
         x[10][2] = -0.995;
         x[11][1] = 0.99;
         for split in 1..12 {
-            let (mut a, mut b) = (InputGuardState::default(), InputGuardState::default());
-            for chunk in x.chunks(split) {
-                let mut scratch = [[0.0f32; CHANNELS]; 12];
-                let out = g.clean_block(&mut b, chunk, &mut scratch);
-                assert_eq!(out.len(), chunk.len());
-                for (v, o) in chunk.iter().zip(out) {
-                    let mut v = *v;
-                    g.process(&mut a, &mut v);
-                    assert_eq!(v.map(f32::to_bits), o.map(f32::to_bits));
+            for scratch_len in [1, 3, 12] {
+                let (mut a, mut b) = (InputGuardState::default(), InputGuardState::default());
+                for chunk in x.chunks(split) {
+                    let mut rest = chunk;
+                    while !rest.is_empty() {
+                        let mut scratch = [[0.0f32; CHANNELS]; 12];
+                        let out = g.clean_block(&mut b, rest, &mut scratch[..scratch_len]);
+                        assert!(!out.is_empty());
+                        for (v, o) in rest.iter().zip(out) {
+                            let mut v = *v;
+                            g.process(&mut a, &mut v);
+                            assert_eq!(v.map(f32::to_bits), o.map(f32::to_bits));
+                        }
+                        assert_eq!(
+                            (a.clip_hold, a.nonfinite_hold),
+                            (b.clip_hold, b.nonfinite_hold)
+                        );
+                        rest = &rest[out.len()..];
+                    }
                 }
-                assert_eq!(
-                    (a.clip_hold, a.nonfinite_hold),
-                    (b.clip_hold, b.nonfinite_hold)
-                );
             }
         }
     }
