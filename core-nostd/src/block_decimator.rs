@@ -156,7 +156,7 @@ impl BlockDecimator {
 /// `L = CHANNELS`, so that whole sample frames load as vectors.
 #[inline(always)]
 fn first_lane<const L: usize>(c0: usize) -> usize {
-    const { assert!(L > 0 && CHANNELS % L == 0 && L.is_power_of_two()) };
+    const { assert!(L.is_power_of_two() && L <= CHANNELS && CHANNELS.is_power_of_two()) };
     c0 & (CHANNELS - L)
 }
 
