@@ -21,16 +21,15 @@
 //! The phase is not linear: the group delay depends on frequency (at 48 kHz 5.65 input samples at
 //! 1 kHz and 5.53 at DC, against 23 for the FIR pair before; see [`Decimator::time_offset`]), but it is
 //! the same filter on every channel, so the magnitude
-//! ratios between channels (the features) do not change. The block path ([`BlockDecimator`]) runs each
-//! stage over a whole piece of input with the same arithmetic in the same order, so its outputs are
-//! bit-identical to the per-sample path.
+//! ratios between channels (the features) do not change. The block path
+//! ([`crate::block_decimator::BlockDecimator`]) runs the cascade over whole pieces of input with the same
+//! arithmetic (`pair_out`) in the same order, so its outputs are bit-identical to the per-sample path.
 
 use crate::error::Error;
 use crate::tables::{HALFBAND_LONG, HALFBAND_SHORT};
-use crate::CHANNELS;
 
 /// Most all-pass sections of a stage (the long stage's).
-const MAX_SECTIONS: usize = HALFBAND_LONG.len();
+pub(crate) const MAX_SECTIONS: usize = HALFBAND_LONG.len();
 
 /// One half-band stage's design.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,63 +76,77 @@ impl HalfbandKind {
     }
 }
 
-/// State of one half-band stage of one channel.
+/// State of one half-band stage of `L` channels run in lockstep (one channel: `L = 1`).
 #[derive(Debug, Clone, Copy)]
-pub struct HalfbandState {
-    /// Per section: its previous input and output.
-    x: [f32; MAX_SECTIONS],
-    y: [f32; MAX_SECTIONS],
+pub struct HalfbandState<const L: usize = 1> {
+    /// Per section and channel: its previous input and output.
+    pub(crate) x: [[f32; L]; MAX_SECTIONS],
+    pub(crate) y: [[f32; L]; MAX_SECTIONS],
     /// The first input of an incomplete pair.
-    held: f32,
+    held: [f32; L],
     /// An input is held (the next one completes an output).
-    odd: bool,
+    pub(crate) odd: bool,
 }
 
-impl HalfbandState {
+impl<const L: usize> HalfbandState<L> {
     /// A zeroed state.
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            x: [0.0; MAX_SECTIONS],
-            y: [0.0; MAX_SECTIONS],
-            held: 0.0,
+            x: [[0.0; L]; MAX_SECTIONS],
+            y: [[0.0; L]; MAX_SECTIONS],
+            held: [0.0; L],
             odd: false,
         }
     }
 }
 
-impl Default for HalfbandState {
+impl<const L: usize> Default for HalfbandState<L> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-/// One output of a stage with `N` sections from the input pair (`first`, `second`), `second` the newer:
-/// path 0 (even sections) takes `second`, path 1 (odd sections) `first`; the output is their mean.
-/// Each section computes y = a·(u − y₋₁) + u₋₁ (multiply and add, never fused, so every target rounds
-/// alike). The sizes are constants, so the loop unrolls and the state stays in registers.
+/// One output of a stage with `N` sections from the input pair (`first`, `second`), `second` the newer,
+/// for `L` channels at once: path 0 (even sections) takes `second`, path 1 (odd sections) `first`; the
+/// output is their mean. Each section computes y = a·(u − y₋₁) + u₋₁ (multiply and add, never fused, so
+/// every target rounds alike); each channel sees the same operations in the same order whatever `L`.
+/// The sizes are constants, so the loops unroll and the state stays in registers (on x86_64 the four
+/// channels of `L = 4` become one SSE register).
 #[inline(always)]
-fn pair_out<const N: usize>(
+pub(crate) fn pair_out<const N: usize, const L: usize>(
     coefs: &[f32; N],
-    x: &mut [f32; MAX_SECTIONS],
-    y: &mut [f32; MAX_SECTIONS],
-    first: f32,
-    second: f32,
-) -> f32 {
+    x: &mut [[f32; L]; MAX_SECTIONS],
+    y: &mut [[f32; L]; MAX_SECTIONS],
+    first: [f32; L],
+    second: [f32; L],
+) -> [f32; L] {
     let mut p = [second, first];
     for (k, a) in coefs.iter().enumerate() {
         let u = p[k % 2];
-        let v = a * (u - y[k]) + x[k];
+        let mut v = [0.0; L];
+        for l in 0..L {
+            v[l] = a * (u[l] - y[k][l]) + x[k][l];
+        }
         x[k] = u;
         y[k] = v;
         p[k % 2] = v;
     }
-    0.5 * (p[0] + p[1])
+    let mut out = [0.0; L];
+    for l in 0..L {
+        out[l] = 0.5 * (p[0][l] + p[1][l]);
+    }
+    out
 }
 
-/// Runs one half-band stage on one input sample; returns an output on every second input.
+/// Runs one half-band stage on one input sample (of `L` channels); returns an output on every second
+/// input.
 #[inline]
-fn halfband_step(kind: HalfbandKind, state: &mut HalfbandState, x: f32) -> Option<f32> {
+fn halfband_step<const L: usize>(
+    kind: HalfbandKind,
+    state: &mut HalfbandState<L>,
+    x: [f32; L],
+) -> Option<[f32; L]> {
     if !state.odd {
         state.held = x;
         state.odd = true;
@@ -155,19 +168,25 @@ pub struct Decimator {
     input_rate: u32,
 }
 
-/// Per-channel decimator state.
+/// Decimator state of one channel, or of `L` channels run in lockstep.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct DecimatorState {
-    stages: [HalfbandState; 3],
+pub struct DecimatorState<const L: usize = 1> {
+    pub(crate) stages: [HalfbandState<L>; 3],
 }
 
-impl DecimatorState {
+impl<const L: usize> DecimatorState<L> {
     /// A zeroed state.
     #[must_use]
     pub const fn new() -> Self {
         Self {
             stages: [HalfbandState::new(); 3],
         }
+    }
+
+    /// No stage holds the first input of a pair: the inputs so far are a multiple of the factor.
+    #[must_use]
+    pub fn aligned(&self) -> bool {
+        !(self.stages[0].odd | self.stages[1].odd | self.stages[2].odd)
     }
 }
 
@@ -251,6 +270,16 @@ impl Decimator {
     /// Feeds one input sample; returns an analysis-rate sample when one is complete.
     #[inline]
     pub fn process(&self, state: &mut DecimatorState, x: f32) -> Option<f32> {
+        self.process_lanes(state, [x]).map(|[y]| y)
+    }
+
+    /// [`Decimator::process`] for `L` channels at once (one sample of each).
+    #[inline]
+    pub fn process_lanes<const L: usize>(
+        &self,
+        state: &mut DecimatorState<L>,
+        x: [f32; L],
+    ) -> Option<[f32; L]> {
         // Unrolled over the (at most three) stages: a loop over `stages[..n_stages]` made the front end
         // ≈ 14 % dearer on the Cortex-M4F.
         let [s0, s1, s2] = &mut state.stages;
@@ -268,127 +297,11 @@ impl Decimator {
         }
         halfband_step(k2, s2, v)
     }
-}
 
-/// Input samples one pass of [`BlockDecimator::run`] takes at most.
-pub const PIECE: usize = 64;
-
-/// Block-wise decimator state of one channel: the stages' states and a buffer for each stage's input.
-#[derive(Debug, Clone, Copy)]
-struct ChannelLines {
-    st: [HalfbandState; 3],
-    s0: [f32; PIECE],
-    s1: [f32; PIECE / 2],
-    s2: [f32; PIECE / 4],
-}
-
-/// Decimator state of all channels for block processing ([`BlockDecimator::run`]): each stage runs
-/// over a whole piece of input of every channel in turn and computes only the samples it keeps. The
-/// outputs are bit-identical to [`Decimator::process`] sample by sample, whatever the piece sizes.
-#[derive(Debug, Clone, Copy)]
-pub struct BlockDecimator {
-    lines: [ChannelLines; CHANNELS],
-}
-
-impl Default for BlockDecimator {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-/// Runs one stage over the inputs `inp`, writes its outputs to `out`; returns the output count.
-#[inline(always)]
-fn run_stage_n<const N: usize>(
-    coefs: &[f32; N],
-    st: &mut HalfbandState,
-    inp: &[f32],
-    out: &mut [f32],
-) -> usize {
-    // The state in locals for the loop (registers on the Cortex-M4F); the arithmetic is `pair_out`'s.
-    let (mut x, mut y) = (st.x, st.y);
-    let mut rest = inp;
-    let mut n = 0;
-    if st.odd {
-        if let Some((second, r)) = rest.split_first() {
-            out[0] = pair_out(coefs, &mut x, &mut y, st.held, *second);
-            n = 1;
-            st.odd = false;
-            rest = r;
-        }
-    }
-    let pairs = rest.chunks_exact(2);
-    let tail = pairs.remainder();
-    for (o, p) in out[n..].iter_mut().zip(pairs) {
-        *o = pair_out(coefs, &mut x, &mut y, p[0], p[1]);
-        n += 1;
-    }
-    if let Some(h) = tail.first() {
-        st.held = *h;
-        st.odd = true;
-    }
-    st.x = x;
-    st.y = y;
-    n
-}
-
-#[inline(always)]
-fn run_stage(kind: HalfbandKind, st: &mut HalfbandState, inp: &[f32], out: &mut [f32]) -> usize {
-    match kind {
-        HalfbandKind::Short => run_stage_n(&HALFBAND_SHORT, st, inp, out),
-        HalfbandKind::Long => run_stage_n(&HALFBAND_LONG, st, inp, out),
-    }
-}
-
-impl BlockDecimator {
-    /// Zeroed states.
+    /// The stages that run, first to last.
     #[must_use]
-    pub const fn new() -> Self {
-        Self {
-            lines: [ChannelLines {
-                st: [HalfbandState::new(); 3],
-                s0: [0.0; PIECE],
-                s1: [0.0; PIECE / 2],
-                s2: [0.0; PIECE / 4],
-            }; CHANNELS],
-        }
-    }
-
-    /// Zeroes the states in place.
-    pub fn reset(&mut self) {
-        for l in self.lines.iter_mut() {
-            l.st = [HalfbandState::new(); 3];
-        }
-    }
-
-    /// Where the next piece of input goes: per channel, [`PIECE`] slots for the first stage (used when
-    /// the decimator has at least one stage).
-    pub fn input_mut(&mut self, _d: &Decimator) -> [&mut [f32]; CHANNELS] {
-        self.lines.each_mut().map(|l| &mut l.s0[..])
-    }
-
-    /// Decimates `m ≤ PIECE` new inputs per channel (written through [`BlockDecimator::input_mut`])
-    /// into `out` (per channel, room for all outputs); returns the number of outputs per channel.
-    /// `d` must have at least one stage.
-    pub fn run(&mut self, d: &Decimator, m: usize, out: [&mut [f32]; CHANNELS]) -> usize {
-        assert!(m <= PIECE && d.n_stages >= 1);
-        let [k0, k1, k2] = d.stages;
-        let mut n = 0;
-        for (l, out) in self.lines.iter_mut().zip(out) {
-            let [t0, t1, t2] = &mut l.st;
-            n = match d.n_stages {
-                1 => run_stage(k0, t0, &l.s0[..m], out),
-                2 => {
-                    let m1 = run_stage(k0, t0, &l.s0[..m], &mut l.s1);
-                    run_stage(k1, t1, &l.s1[..m1], out)
-                }
-                _ => {
-                    let m1 = run_stage(k0, t0, &l.s0[..m], &mut l.s1);
-                    let m2 = run_stage(k1, t1, &l.s1[..m1], &mut l.s2);
-                    run_stage(k2, t2, &l.s2[..m2], out)
-                }
-            };
-        }
-        n
+    pub fn stages(&self) -> &[HalfbandKind] {
+        &self.stages[..self.n_stages]
     }
 }
 

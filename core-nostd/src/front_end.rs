@@ -2,16 +2,22 @@
 //!
 //! [`FrontEnd::feed`] takes up to [`PIECE`] sample frames at a time, never past the sample that
 //! completes an analysis frame, so an analysis can run between two calls exactly where the per-sample
-//! pipeline would run it. Within a piece it cleans and de-interleaves the four channels
-//! ([`InputGuard::process_block`]), runs each half-band stage over the whole piece per channel
-//! ([`BlockDecimator`]) and writes the last stage's outputs straight into the [`Framer`]. The result
-//! does not depend on how the input is split into blocks.
+//! pipeline would run it. Within a piece it checks the interleaved input once
+//! ([`InputGuard::clean_block`]: the piece itself when nothing needs cleaning, else a cleaned copy of
+//! at most 64 sample frames, and the rest of the piece waits for the next call),
+//! runs all half-band stages over it in one pass ([`BlockDecimator`]) and writes the last stage's
+//! outputs straight into the [`Framer`]. The result does not depend on how the input is split into
+//! blocks.
 
-use crate::decimator::{BlockDecimator, Decimator, PIECE};
+use crate::block_decimator::{BlockDecimator, PIECE};
+use crate::decimator::Decimator;
 use crate::estimate::Flags;
 use crate::framer::Framer;
 use crate::input_guard::{InputGuard, InputGuardState};
 use crate::{CHANNELS, FRAME_LEN};
+
+/// Sample frames cleaned at a time when a piece needs cleaning (a rare, slower path; a small copy).
+const CLEAN_PIECE: usize = 64;
 
 /// Guard, decimator and framer with their state.
 #[derive(Debug, Clone)]
@@ -20,6 +26,8 @@ pub struct FrontEnd {
     guard_state: InputGuardState,
     decimator: Decimator,
     lines: BlockDecimator,
+    /// The cleaned copy of (the start of) a piece that needed cleaning.
+    scratch: [[f32; CHANNELS]; CLEAN_PIECE],
     /// Input sample frames so far, modulo the decimation factor.
     phase: usize,
     framer: Framer,
@@ -34,6 +42,7 @@ impl FrontEnd {
             guard_state: InputGuardState::new(),
             decimator,
             lines: BlockDecimator::new(),
+            scratch: [[0.0; CHANNELS]; CLEAN_PIECE],
             phase: 0,
             framer: Framer::new(),
         }
@@ -65,17 +74,20 @@ impl FrontEnd {
         if len == 0 {
             return (0, false);
         }
-        let block = &block[..len];
+        let block = self
+            .guard
+            .clean_block(&mut self.guard_state, &block[..len], &mut self.scratch);
+        let len = block.len();
+        let mut free = self.framer.free_mut();
         let produced = if factor == 1 {
-            let free = self.framer.free_mut();
-            self.guard.process_block(&mut self.guard_state, block, free);
+            for (i, x) in block.iter().enumerate() {
+                for (o, v) in free.iter_mut().zip(x) {
+                    o[i] = *v;
+                }
+            }
             len
         } else {
-            let input = self.lines.input_mut(&self.decimator);
-            self.guard
-                .process_block(&mut self.guard_state, block, input);
-            let free = self.framer.free_mut();
-            self.lines.run(&self.decimator, len, free)
+            self.lines.run(&self.decimator, block, free)
         };
         self.phase = (self.phase + len) % factor;
         (len, self.framer.commit(produced))
@@ -112,11 +124,20 @@ mod tests {
             libm::cosf(1.3 * t),
             ((n * 7919) % 1000) as f32 / 500.0 - 1.0,
         ];
-        if n == 3001 {
-            x[1] = f32::NAN;
-        }
-        if n == 5003 {
-            x[2] = 3.0;
+        // Bad values in every channel, inside pieces and at their edges (multiples of 64 and 256).
+        let below = f32::from_bits(0.999f32.to_bits() - 1);
+        match n {
+            255 => x[0] = f32::INFINITY,
+            256 => x[3] = f32::NEG_INFINITY,
+            1023 => x[2] = -1.5,
+            1024 => x[1] = 0.999,
+            1500 => x = [below, -below, below, -below],
+            2047 => x[0] = -0.999,
+            2048 => x[3] = f32::NAN,
+            3001 => x[1] = f32::NAN,
+            4095 => x = [f32::NAN, 2.0, -f32::INFINITY, -0.9995],
+            5003 => x[2] = 3.0,
+            _ => {}
         }
         x
     }
@@ -131,7 +152,7 @@ mod tests {
         for rate in [12_000u32, 24_000, 48_000, 96_000] {
             let d = Decimator::for_rate(rate).unwrap();
             let n_in = 3 * FRAME_LEN * d.factor() as usize + 37;
-            for split in [1usize, 3, 7, 64, 100, 1024] {
+            for split in [1usize, 3, 7, 64, 100, 255, 256, 257, 1024] {
                 let mut fe = FrontEnd::new(d, guard);
                 let mut gs = InputGuardState::new();
                 let mut ds = [DecimatorState::new(); CHANNELS];

@@ -50,48 +50,43 @@ impl InputGuard {
         }
     }
 
-    /// [`InputGuard::process`] on every sample frame of `block`, writing the cleaned channels to
-    /// `out[ch][..block.len()]` (de-interleaved). The countdowns end as after the per-sample calls.
+    /// [`InputGuard::process`] on the sample frames at the start of `block`; returns them cleaned:
+    /// all of `block` itself when nothing needs cleaning (the common case: one integer test per value,
+    /// no copy), else a cleaned copy of its first `scratch.len()` frames (or fewer, if `block` is
+    /// shorter) in `scratch`. The countdowns end as after the per-sample calls on the returned frames;
+    /// the caller continues with the rest of `block`.
     #[inline]
-    pub fn process_block(
+    pub fn clean_block<'a>(
         &self,
         state: &mut InputGuardState,
-        block: &[[f32; CHANNELS]],
-        out: [&mut [f32]; CHANNELS],
-    ) {
+        block: &'a [[f32; CHANNELS]],
+        scratch: &'a mut [[f32; CHANNELS]],
+    ) -> &'a [[f32; CHANNELS]] {
         let n = block.len();
-        let [o0, o1, o2, o3] = out;
-        let (o0, o1, o2, o3) = (&mut o0[..n], &mut o1[..n], &mut o2[..n], &mut o3[..n]);
+        if self.all_below_level(block) {
+            let n = u32::try_from(n).unwrap_or(u32::MAX);
+            state.clip_hold = state.clip_hold.saturating_sub(n);
+            state.nonfinite_hold = state.nonfinite_hold.saturating_sub(n);
+            return block;
+        }
+        let n = n.min(scratch.len());
+        let out = &mut scratch[..n];
         // Index (+1) of the last sample frame with a clipped / a non-finite value, 0 for none.
         let mut last_clip = 0usize;
         let mut last_nonfinite = 0usize;
         let level = self.clip_level;
-        // |v| < level ⟺ abs_bits(v) < abs_bits(level) for level > 0 (IEEE order of non-negative
-        // floats is the order of their bits; NaN and ±Inf are above every finite level): an integer
-        // test per value for the common case. A level ≤ 0 or NaN sends every value to the exact path.
-        let limit = if level > 0.0 { level.to_bits() } else { 0 };
-        let abs_bits = |v: f32| v.to_bits() & 0x7fff_ffff;
-        for (i, x) in block.iter().enumerate() {
+        for (i, (x, o)) in block.iter().zip(out.iter_mut()).enumerate() {
             let mut x = *x;
-            let suspect = (abs_bits(x[0]) >= limit)
-                | (abs_bits(x[1]) >= limit)
-                | (abs_bits(x[2]) >= limit)
-                | (abs_bits(x[3]) >= limit);
-            if suspect {
-                for v in x.iter_mut() {
-                    if !v.is_finite() {
-                        *v = 0.0;
-                        last_nonfinite = i + 1;
-                    } else if v.abs() >= level {
-                        *v = v.clamp(-1.0, 1.0);
-                        last_clip = i + 1;
-                    }
+            for v in x.iter_mut() {
+                if !v.is_finite() {
+                    *v = 0.0;
+                    last_nonfinite = i + 1;
+                } else if v.abs() >= level {
+                    *v = v.clamp(-1.0, 1.0);
+                    last_clip = i + 1;
                 }
             }
-            o0[i] = x[0];
-            o1[i] = x[1];
-            o2[i] = x[2];
-            o3[i] = x[3];
+            *o = x;
         }
         // After a bad sample frame at index i the hold restarts and counts down n − 1 − i times.
         let count = |hold: u32, last: usize| -> u32 {
@@ -104,6 +99,35 @@ impl InputGuard {
         };
         state.clip_hold = count(state.clip_hold, last_clip);
         state.nonfinite_hold = count(state.nonfinite_hold, last_nonfinite);
+        out
+    }
+
+    /// Whether every value of `block` is finite with |v| below the clip level (then the guard leaves
+    /// it alone), without a branch per value.
+    ///
+    /// For level > 0 the IEEE order of non-negative floats is the order of their bits, and NaN and ±Inf
+    /// are above every finite level: |v| < level ⟺ abs_bits(v) < abs_bits(level). With the bits
+    /// shifted left by one (dropping the sign), u = 2·abs_bits(v) and t = 2·abs_bits(level), u ≥ t
+    /// ⟺ u + (2³² − t) carries out of 32 bits: the carries are counted (an add with carry per value on
+    /// the Cortex-M4F). A level ≤ 0 or NaN makes every value suspect.
+    #[inline]
+    fn all_below_level(&self, block: &[[f32; CHANNELS]]) -> bool {
+        let level = self.clip_level;
+        if !(level > 0.0) {
+            return block.is_empty();
+        }
+        let minus_limit = (level.to_bits() << 1).wrapping_neg();
+        // Counted per chunk, so the count cannot wrap.
+        block.chunks(1 << 16).all(|chunk| {
+            let mut at_or_above = 0u32;
+            for x in chunk {
+                for v in x {
+                    let (_, carry) = (v.to_bits() << 1).overflowing_add(minus_limit);
+                    at_or_above += u32::from(carry);
+                }
+            }
+            at_or_above == 0
+        })
     }
 
     /// Flags for the analysis frame that ends now.
@@ -152,33 +176,76 @@ mod tests {
         x[4][3] = 1.5;
         x[9][0] = f32::NEG_INFINITY;
         x[10][2] = -0.995;
+        x[11][1] = 0.99;
         for split in 1..12 {
-            let (mut a, mut b) = (InputGuardState::default(), InputGuardState::default());
-            let mut outs = [[0.0f32; 12]; CHANNELS];
-            for (c, chunk) in x.chunks(split).enumerate() {
-                let [o0, o1, o2, o3] = &mut outs;
-                let r = c * split..c * split + chunk.len();
-                g.process_block(
-                    &mut b,
-                    chunk,
-                    [
-                        &mut o0[r.clone()],
-                        &mut o1[r.clone()],
-                        &mut o2[r.clone()],
-                        &mut o3[r],
-                    ],
-                );
-                for (j, v) in chunk.iter().enumerate() {
-                    let mut v = *v;
-                    g.process(&mut a, &mut v);
-                    for ch in 0..CHANNELS {
-                        assert_eq!(outs[ch][c * split + j].to_bits(), v[ch].to_bits());
+            for scratch_len in [1, 3, 12] {
+                let (mut a, mut b) = (InputGuardState::default(), InputGuardState::default());
+                for chunk in x.chunks(split) {
+                    let mut rest = chunk;
+                    while !rest.is_empty() {
+                        let mut scratch = [[0.0f32; CHANNELS]; 12];
+                        let out = g.clean_block(&mut b, rest, &mut scratch[..scratch_len]);
+                        assert!(!out.is_empty());
+                        for (v, o) in rest.iter().zip(out) {
+                            let mut v = *v;
+                            g.process(&mut a, &mut v);
+                            assert_eq!(v.map(f32::to_bits), o.map(f32::to_bits));
+                        }
+                        assert_eq!(
+                            (a.clip_hold, a.nonfinite_hold),
+                            (b.clip_hold, b.nonfinite_hold)
+                        );
+                        rest = &rest[out.len()..];
                     }
                 }
-                assert_eq!(
-                    (a.clip_hold, a.nonfinite_hold),
-                    (b.clip_hold, b.nonfinite_hold)
-                );
+            }
+        }
+    }
+
+    /// The integer test agrees with the float test at the level's neighbours and elsewhere, for any
+    /// sign and channel, and for levels ≤ 0 or NaN.
+    #[test]
+    fn level_test_is_exact() {
+        for level in [
+            0.99f32,
+            1.0,
+            1e-30,
+            f32::MIN_POSITIVE,
+            0.0,
+            -0.5,
+            f32::NAN,
+            f32::INFINITY,
+        ] {
+            let g = InputGuard {
+                clip_level: level,
+                hold_samples: 1,
+            };
+            let near = |v: f32| {
+                [
+                    v,
+                    f32::from_bits(v.to_bits().saturating_sub(1)),
+                    f32::from_bits(v.to_bits().saturating_add(1)),
+                ]
+            };
+            let values = [
+                level.abs(),
+                0.5,
+                0.0,
+                f32::MAX,
+                f32::INFINITY,
+                f32::NAN,
+                1e-40,
+            ]
+            .into_iter()
+            .flat_map(near);
+            for v in values.flat_map(|v| [v, -v]) {
+                let below = v.is_finite() && v.abs() < level;
+                for ch in 0..CHANNELS {
+                    let mut x = [0.0; CHANNELS];
+                    x[ch] = v;
+                    let pass = g.all_below_level(&[[0.0; CHANNELS], x]);
+                    assert_eq!(pass, below && level > 0.0, "level {level} v {v} ch {ch}");
+                }
             }
         }
     }

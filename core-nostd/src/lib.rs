@@ -7,6 +7,7 @@
 //! The pipeline, one module per stage:
 //!
 //! 1. [`decimator`] — half-band anti-alias cascade, 48 kHz → 12 kHz (44.1 → 11.025, 16 kHz passes);
+//!    [`block_decimator`] runs it over pieces of interleaved input, all stages in one pass;
 //! 2. [`framer`] — 512-sample analysis frames with a hop of 256 ([`front_end`] runs the input guard,
 //!    the decimator and the framer block by block);
 //! 3. [`spectrum`] — Hamming window from a table, `microfft` real FFT, Nyquist bin unpacked; for the
@@ -37,6 +38,7 @@
 pub mod angle;
 pub mod beamformer;
 pub mod bformat;
+pub mod block_decimator;
 pub mod cartesian_filter;
 pub mod combination;
 pub mod config;

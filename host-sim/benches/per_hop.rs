@@ -1,8 +1,12 @@
 //! Criterion benchmark of the localizer's cost per analysis hop (1024 input sample frames at 48 kHz:
 //! decimation, framing, four spectra, peaks, similarity curve, tracking), for the product and the
-//! thesis configuration, on a synthetic talker in diffuse noise.
+//! thesis configuration, on a synthetic talker in diffuse noise; and of the front end alone (input
+//! guard, ×4 decimation and framing of the same hop).
 
-use cma_core::{Locator, LocatorConfig, ReferenceTable};
+use cma_core::decimator::Decimator;
+use cma_core::front_end::FrontEnd;
+use cma_core::input_guard::InputGuard;
+use cma_core::{Locator, LocatorConfig, ReferenceTable, FRAME_LEN};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use host_sim::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
 use std::hint::black_box;
@@ -54,5 +58,36 @@ fn per_hop(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, per_hop);
+fn front_end_per_hop(c: &mut Criterion) {
+    let frames = scene();
+    let hop = 1024;
+    let mut g = c.benchmark_group("front_end_per_hop_48k");
+    g.throughput(Throughput::Elements(hop as u64));
+    let guard = InputGuard {
+        clip_level: LocatorConfig::default().clip_level,
+        hold_samples: 4 * (FRAME_LEN as u32 + 64),
+    };
+    let mut fe = FrontEnd::new(Decimator::for_rate(48_000).expect("supported"), guard);
+    let mut pos = 0;
+    g.bench_function("default", |b| {
+        b.iter(|| {
+            if pos + hop > frames.len() {
+                pos = 0;
+            }
+            let mut rest = black_box(&frames[pos..pos + hop]);
+            let mut ready = 0;
+            while !rest.is_empty() {
+                let (used, r) = fe.feed(rest);
+                ready += usize::from(r);
+                rest = &rest[used..];
+            }
+            pos += hop;
+            black_box(fe.frame());
+            ready
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, per_hop, front_end_per_hop);
 criterion_main!(benches);
