@@ -209,8 +209,9 @@ impl<const L: usize> Lanes<L> {
         coefs: &[f32; N],
         first: [f32; L],
         second: [f32; L],
+        scale: f32,
     ) -> [f32; L] {
-        pair_out(coefs, &mut self.x, &mut self.y, first, second)
+        pair_out(coefs, &mut self.x, &mut self.y, first, second, scale)
     }
 }
 
@@ -245,7 +246,7 @@ fn groups_long<const L: usize>(
     let mut out = out.map(|o| &mut o[..groups]);
     let mut s0 = Lanes::<L>::load(&st[0], c0);
     for (g, f) in (0..groups).zip(input.chunks_exact(2)) {
-        let v = s0.pair(&HALFBAND_LONG, lanes(&f[0], c0), lanes(&f[1], c0));
+        let v = s0.pair(&HALFBAND_LONG, lanes(&f[0], c0), lanes(&f[1], c0), 0.5);
         put(&mut out, g, v);
     }
     s0.store(&mut st[0], c0);
@@ -265,9 +266,9 @@ fn groups_short_long<const L: usize>(
     let mut s0 = Lanes::<L>::load(&st[0], c0);
     let mut s1 = Lanes::<L>::load(&st[1], c0);
     for (g, f) in (0..groups).zip(input.chunks_exact(4)) {
-        let a = s0.pair(&HALFBAND_SHORT, lanes(&f[0], c0), lanes(&f[1], c0));
-        let b = s0.pair(&HALFBAND_SHORT, lanes(&f[2], c0), lanes(&f[3], c0));
-        let v = s1.pair(&HALFBAND_LONG, a, b);
+        let a = s0.pair(&HALFBAND_SHORT, lanes(&f[0], c0), lanes(&f[1], c0), 1.0);
+        let b = s0.pair(&HALFBAND_SHORT, lanes(&f[2], c0), lanes(&f[3], c0), 1.0);
+        let v = s1.pair(&HALFBAND_LONG, a, b, 0.25);
         put(&mut out, g, v);
     }
     s0.store(&mut st[0], c0);
@@ -290,13 +291,13 @@ fn groups_short_short_long<const L: usize>(
     let mut s1 = Lanes::<L>::load(&st[1], c0);
     let mut s2 = Lanes::<L>::load(&st[2], c0);
     for (g, f) in (0..groups).zip(input.chunks_exact(8)) {
-        let a0 = s0.pair(&HALFBAND_SHORT, lanes(&f[0], c0), lanes(&f[1], c0));
-        let a1 = s0.pair(&HALFBAND_SHORT, lanes(&f[2], c0), lanes(&f[3], c0));
-        let b0 = s1.pair(&HALFBAND_SHORT, a0, a1);
-        let a2 = s0.pair(&HALFBAND_SHORT, lanes(&f[4], c0), lanes(&f[5], c0));
-        let a3 = s0.pair(&HALFBAND_SHORT, lanes(&f[6], c0), lanes(&f[7], c0));
-        let b1 = s1.pair(&HALFBAND_SHORT, a2, a3);
-        let v = s2.pair(&HALFBAND_LONG, b0, b1);
+        let a0 = s0.pair(&HALFBAND_SHORT, lanes(&f[0], c0), lanes(&f[1], c0), 1.0);
+        let a1 = s0.pair(&HALFBAND_SHORT, lanes(&f[2], c0), lanes(&f[3], c0), 1.0);
+        let b0 = s1.pair(&HALFBAND_SHORT, a0, a1, 1.0);
+        let a2 = s0.pair(&HALFBAND_SHORT, lanes(&f[4], c0), lanes(&f[5], c0), 1.0);
+        let a3 = s0.pair(&HALFBAND_SHORT, lanes(&f[6], c0), lanes(&f[7], c0), 1.0);
+        let b1 = s1.pair(&HALFBAND_SHORT, a2, a3, 1.0);
+        let v = s2.pair(&HALFBAND_LONG, b0, b1, 0.125);
         put(&mut out, g, v);
     }
     s0.store(&mut st[0], c0);

@@ -109,7 +109,10 @@ impl<const L: usize> Default for HalfbandState<L> {
 
 /// One output of a stage with `N` sections from the input pair (`first`, `second`), `second` the newer,
 /// for `L` channels at once: path 0 (even sections) takes `second`, path 1 (odd sections) `first`; the
-/// output is their mean. Each section computes y = a·(u − y₋₁) + u₋₁ (multiply and add, never fused, so
+/// output is their sum times `scale`. The half-band's ½ is deferred: inner stages pass `scale` = 1
+/// (the multiply folds away) and the last stage of a cascade of n applies 2⁻ⁿ once. Scaling by a
+/// power of two commutes with every rounding in the normal range, so the output equals that of a ½
+/// per stage bit for bit there (only subnormal intermediates, below 10⁻³⁸, could differ). Each section computes y = a·(u − y₋₁) + u₋₁ (multiply and add, never fused, so
 /// every target rounds alike); each channel sees the same operations in the same order whatever `L`.
 /// The sizes are constants, so the loops unroll and the state stays in registers (on x86_64 the four
 /// channels of `L = 4` become one SSE register).
@@ -120,6 +123,7 @@ pub(crate) fn pair_out<const N: usize, const L: usize>(
     y: &mut [[f32; L]; MAX_SECTIONS],
     first: [f32; L],
     second: [f32; L],
+    scale: f32,
 ) -> [f32; L] {
     let mut p = [second, first];
     for (k, a) in coefs.iter().enumerate() {
@@ -134,7 +138,7 @@ pub(crate) fn pair_out<const N: usize, const L: usize>(
     }
     let mut out = [0.0; L];
     for l in 0..L {
-        out[l] = 0.5 * (p[0][l] + p[1][l]);
+        out[l] = scale * (p[0][l] + p[1][l]);
     }
     out
 }
@@ -146,6 +150,7 @@ fn halfband_step<const L: usize>(
     kind: HalfbandKind,
     state: &mut HalfbandState<L>,
     x: [f32; L],
+    scale: f32,
 ) -> Option<[f32; L]> {
     if !state.odd {
         state.held = x;
@@ -155,8 +160,10 @@ fn halfband_step<const L: usize>(
     state.odd = false;
     let held = state.held;
     Some(match kind {
-        HalfbandKind::Short => pair_out(&HALFBAND_SHORT, &mut state.x, &mut state.y, held, x),
-        HalfbandKind::Long => pair_out(&HALFBAND_LONG, &mut state.x, &mut state.y, held, x),
+        HalfbandKind::Short => {
+            pair_out(&HALFBAND_SHORT, &mut state.x, &mut state.y, held, x, scale)
+        }
+        HalfbandKind::Long => pair_out(&HALFBAND_LONG, &mut state.x, &mut state.y, held, x, scale),
     })
 }
 
@@ -287,15 +294,17 @@ impl Decimator {
         if self.n_stages == 0 {
             return Some(x);
         }
-        let v = halfband_step(k0, s0, x)?;
-        if self.n_stages == 1 {
+        // The ½ of every stage is applied at the last one (see `pair_out`).
+        let n = self.n_stages;
+        let v = halfband_step(k0, s0, x, if n == 1 { 0.5 } else { 1.0 })?;
+        if n == 1 {
             return Some(v);
         }
-        let v = halfband_step(k1, s1, v)?;
-        if self.n_stages == 2 {
+        let v = halfband_step(k1, s1, v, if n == 2 { 0.25 } else { 1.0 })?;
+        if n == 2 {
             return Some(v);
         }
-        halfband_step(k2, s2, v)
+        halfband_step(k2, s2, v, 0.125)
     }
 
     /// The stages that run, first to last.
