@@ -442,7 +442,12 @@ impl<'t> Locator<'t> {
         for ch in 1..CHANNELS {
             fold_windowed(&self.front.frame()[ch], &mut self.spectra[ch]);
         }
-        for (p, c) in self.omni_power.iter_mut().zip(self.spectra[0].iter()) {
+        // Only the bins the picker reads (every later use is at a picked bin); the rest stay 0.
+        let bins = self.picker.reads();
+        for (p, c) in self.omni_power[bins.clone()]
+            .iter_mut()
+            .zip(&self.spectra[0][bins])
+        {
             *p = power(*c);
         }
         self.picker.process(&self.omni_power, &mut self.peaks);

@@ -97,6 +97,18 @@ impl PeakPicker {
         )
     }
 
+    /// The bins of the power spectrum that [`PeakPicker::process`] reads: the band and one
+    /// neighbour on each side (empty for an empty band). No other bin needs computing.
+    #[must_use]
+    pub fn reads(&self) -> core::ops::Range<usize> {
+        let (lo, hi) = self.band();
+        if lo > hi {
+            0..0
+        } else {
+            lo - 1..hi + 2
+        }
+    }
+
     /// Picks peaks from `power` (one value per bin, DC…Nyquist) into `out`.
     pub fn process(&self, power: &[f32], out: &mut Peaks) {
         *out = Peaks::default();
