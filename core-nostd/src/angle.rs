@@ -3,6 +3,10 @@
 /// Wraps an angle in degrees to (−180, 180].
 #[must_use]
 pub fn wrap_deg(a: f32) -> f32 {
+    if a > -180.0 && a <= 180.0 {
+        // Already wrapped (the common case): what the general path returns, without `fmodf`.
+        return a;
+    }
     if !a.is_finite() {
         return 0.0;
     }
@@ -51,5 +55,25 @@ mod tests {
         assert_eq!(wrap_deg(720.0 + 5.0), 5.0);
         assert_eq!(wrap_deg(f32::NAN), 0.0);
         assert_eq!(wrap_deg_360(-10.0), 350.0);
+    }
+
+    #[test]
+    fn fast_path_equals_the_fmod_path() {
+        let general = |a: f32| {
+            let mut x = libm::fmodf(a, 360.0);
+            if x <= -180.0 {
+                x += 360.0;
+            } else if x > 180.0 {
+                x -= 360.0;
+            }
+            x
+        };
+        for i in -200_000..=200_000 {
+            let a = i as f32 * 0.0017;
+            assert_eq!(wrap_deg(a).to_bits(), general(a).to_bits(), "{a}");
+        }
+        for a in [-0.0f32, 0.0, 180.0, -179.99999, f32::MIN_POSITIVE, -1e-30] {
+            assert_eq!(wrap_deg(a).to_bits(), general(a).to_bits(), "{a}");
+        }
     }
 }

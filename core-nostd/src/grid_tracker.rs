@@ -197,12 +197,22 @@ impl GridTracker {
         let down = (0.5 * (second - shift)).max(0.0);
         let stay = (1.0 - up - down).max(0.0);
         let eps = self.jump_probability_for(state, b).clamp(0.0, 1.0);
-        let p = &state.posterior[..q];
-        for i in 0..q {
-            let l = p[if i == 0 { q - 1 } else { i - 1 }];
-            let r = p[if i + 1 == q { 0 } else { i + 1 }];
-            let d = up * l + down * r + stay * p[i];
-            state.scratch[i] = (1.0 - eps) * d + eps * uniform;
+        // Same arithmetic for every bin; the two wrapped ends apart so the loop over the inner bins
+        // needs neither index wrapping nor bounds checks.
+        let (keep, add) = (1.0 - eps, eps * uniform);
+        let predict = |l: f32, c: f32, r: f32| keep * (up * l + down * r + stay * c) + add;
+        {
+            let p = &state.posterior[..q];
+            let out = &mut state.scratch[..q];
+            if q == 1 {
+                out[0] = predict(p[0], p[0], p[0]);
+            } else {
+                out[0] = predict(p[q - 1], p[0], p[1]);
+                out[q - 1] = predict(p[q - 2], p[q - 1], p[0]);
+                for (o, w) in out[1..q - 1].iter_mut().zip(p.windows(3)) {
+                    *o = predict(w[0], w[1], w[2]);
+                }
+            }
         }
         // Update with the tempered likelihood.
         let gain = self.sharpness * b.clamp(0.0, 1.0);
@@ -212,15 +222,20 @@ impl GridTracker {
             .fold(f32::NEG_INFINITY, |m, v| if *v > m { *v } else { m });
         let floor = self.likelihood_floor.clamp(0.0, 1.0);
         let mut sum = 0.0f32;
-        for i in 0..q {
-            let like = if gain > 0.0 && s_max.is_finite() {
-                floor + (1.0 - floor) * libm::expf(gain * (curve[i] - s_max))
-            } else {
-                1.0
-            };
-            let v = state.scratch[i] * like;
-            state.posterior[i] = v;
-            sum += v;
+        let post = &mut state.posterior[..q];
+        let prior = &state.scratch[..q];
+        if gain > 0.0 && s_max.is_finite() {
+            for ((o, p), c) in post.iter_mut().zip(prior).zip(&curve[..q]) {
+                let like = floor + (1.0 - floor) * libm::expf(gain * (c - s_max));
+                *o = p * like;
+                sum += *o;
+            }
+        } else {
+            // Likelihood 1 everywhere: the prediction is the posterior.
+            for (o, p) in post.iter_mut().zip(prior) {
+                *o = *p;
+                sum += *o;
+            }
         }
         if sum > 0.0 && sum.is_finite() {
             let inv = 1.0 / sum;
