@@ -226,7 +226,8 @@ impl GridTracker {
         let prior = &state.scratch[..q];
         if gain > 0.0 && s_max.is_finite() {
             for ((o, p), c) in post.iter_mut().zip(prior).zip(&curve[..q]) {
-                let like = floor + (1.0 - floor) * libm::expf(gain * (c - s_max));
+                let like =
+                    floor + (1.0 - floor) * crate::fast_exp::exp_nonpositive(gain * (c - s_max));
                 *o = p * like;
                 sum += *o;
             }

@@ -48,6 +48,7 @@ pub mod distance;
 pub mod embedded_table;
 pub mod error;
 pub mod estimate;
+pub mod fast_exp;
 pub mod fast_math;
 pub mod fdiv;
 pub mod features;
