@@ -183,6 +183,35 @@ mod tests {
         assert_eq!(out.bins(), &[10, 11, 20]);
     }
 
+    /// The locator computes the power spectrum only over `reads()`: whatever the other bins hold
+    /// must not change the picked peaks.
+    #[test]
+    fn reads_only_the_bins_it_names() {
+        let mut seed = 7u32;
+        for (lo, hi) in [(1, 255), (9, 171), (2, 20), (0, 300), (30, 29)] {
+            let pk = PeakPicker {
+                lo_bin: lo,
+                hi_bin: hi,
+                num_peaks: 10,
+                min_power: 0.0,
+                fill: true,
+            };
+            let mut p = [0.0f32; crate::NUM_BINS];
+            for v in p.iter_mut() {
+                seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                *v = (seed >> 8) as f32 / (1u32 << 24) as f32;
+            }
+            let reads = pk.reads();
+            let mut masked = [f32::NAN; crate::NUM_BINS];
+            masked[reads.clone()].copy_from_slice(&p[reads]);
+            let (mut a, mut b) = (Peaks::default(), Peaks::default());
+            pk.process(&p, &mut a);
+            pk.process(&masked, &mut b);
+            assert_eq!(a.bins(), b.bins(), "band {lo}..={hi}");
+            assert_eq!(a.n_maxima, b.n_maxima);
+        }
+    }
+
     #[test]
     fn threshold_can_leave_fewer_peaks() {
         let mut p = [0.0f32; 30];
