@@ -91,10 +91,12 @@ impl PeakPicker {
     /// The bins peaks can come from, `(lo, hi)` inclusive, for spectra of [`crate::NUM_BINS`] bins.
     #[must_use]
     pub fn band(&self) -> (usize, usize) {
-        (
-            self.lo_bin.max(1),
-            self.hi_bin.min(crate::NUM_BINS.saturating_sub(2)),
-        )
+        self.band_of(crate::NUM_BINS)
+    }
+
+    /// [`PeakPicker::band`] for a spectrum of `len` bins: a peak needs a neighbour on each side.
+    fn band_of(&self, len: usize) -> (usize, usize) {
+        (self.lo_bin.max(1), self.hi_bin.min(len.saturating_sub(2)))
     }
 
     /// The bins of the power spectrum that [`PeakPicker::process`] reads: the band and one
@@ -113,8 +115,7 @@ impl PeakPicker {
     pub fn process(&self, power: &[f32], out: &mut Peaks) {
         *out = Peaks::default();
         let n = self.num_peaks.clamp(1, MAX_PEAKS);
-        let lo = self.lo_bin.max(1);
-        let hi = self.hi_bin.min(power.len().saturating_sub(2));
+        let (lo, hi) = self.band_of(power.len());
         if lo > hi {
             return;
         }

@@ -338,6 +338,28 @@ mod tests {
         p.display().to_string()
     }
 
+    /// The error message of `host-sim ARGS…`, which must fail.
+    fn err_of(args: &[&str]) -> String {
+        crate::run(core::iter::once("host-sim").chain(args.iter().copied()))
+            .unwrap_err()
+            .to_string()
+    }
+
+    /// The error of calibrating from the one recording `rec` at 0° against `sweep`.
+    fn calibrate_err(out: &Path, sweep: &Path, rec: &Path) -> String {
+        err_of(&[
+            "calibrate",
+            "--out",
+            &s(out),
+            "--sweep",
+            &s(sweep),
+            "--f2",
+            "7000",
+            "--rec",
+            &format!("0={}", s(rec)),
+        ])
+    }
+
     #[test]
     fn cli_errors_are_clear_and_write_nothing() {
         let dir = tempfile::tempdir().unwrap();
@@ -360,57 +382,20 @@ mod tests {
         let two = d.join("two.wav");
         write_wav(&two, 16_000, 2, &vec![0.1; 2 * 16_000], OutFormat::Pcm16).unwrap();
         let out = d.join("t.cmat");
-        let e = crate::run([
-            "host-sim",
-            "calibrate",
-            "--out",
-            &s(&out),
-            "--sweep",
-            &s(&sweep),
-            "--f2",
-            "7000",
-            "--rec",
-            &format!("0={}", s(&two)),
-        ])
-        .unwrap_err()
-        .to_string();
+        let e = calibrate_err(&out, &sweep, &two);
         assert!(e.contains("expected 4 channels"), "{e}");
-        let e = crate::run([
-            "host-sim",
-            "calibrate",
-            "--out",
-            &s(&out),
-            "--rec",
-            "north=x.wav",
-        ])
-        .unwrap_err()
-        .to_string();
+        let e = err_of(&["calibrate", "--out", &s(&out), "--rec", "north=x.wav"]);
         assert!(e.contains("not an azimuth"), "{e}");
         // A 4-channel recording of silence: no impulse response in it.
         let four = d.join("four.wav");
         write_wav(&four, 16_000, 4, &vec![0.0; 4 * 16_000], OutFormat::Pcm16).unwrap();
-        let e = crate::run([
-            "host-sim",
-            "calibrate",
-            "--out",
-            &s(&out),
-            "--sweep",
-            &s(&sweep),
-            "--f2",
-            "7000",
-            "--rec",
-            &format!("0={}", s(&four)),
-        ])
-        .unwrap_err()
-        .to_string();
+        let e = calibrate_err(&out, &sweep, &four);
         assert!(e.contains("does not match the sweep"), "{e}");
         assert!(!out.exists());
         // A table file with a bad header is refused by locate.
         let bad = d.join("bad.cmat");
         std::fs::write(&bad, b"CMAREFT\0\x07\0\0\0\x48\0\x01\0\0\0\0\0").unwrap();
-        let e = crate::run(["host-sim", "locate", &s(&four), "--table", &s(&bad)])
-            .unwrap_err()
-            .to_string();
+        let e = err_of(&["locate", &s(&four), "--table", &s(&bad)]);
         assert!(e.contains("bad.cmat") && e.contains("truncated"), "{e}");
         let names: Vec<_> = std::fs::read_dir(d)
             .unwrap()
