@@ -43,6 +43,8 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     onset_jump_probability: 0.3,
     pause_frames: 6,
     onset_frames: 3,
+    refine_gain: 0.1,
+    refine_limit: 1.0,
 };
 
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or

@@ -13,6 +13,9 @@
 //! frames moves the posterior at once, so jumps are followed in a few frames; and because the motion
 //! model diffuses instead of averaging old curves, a moving talker is followed without lag.
 
+use crate::angle::wrap_deg;
+use crate::interpolation::argmax_parabolic_mapped;
+use crate::running_curve::RunningCurve;
 use crate::MAX_AZIMUTHS;
 
 /// Tracker settings.
@@ -55,6 +58,14 @@ pub struct GridTracker {
     pub pause_frames: u32,
     /// Reliable frames after a pause that use [`GridTracker::onset_jump_probability`].
     pub onset_frames: u32,
+    /// Gain β of the drift-compensated running mean curve ([`RunningCurve`]) that places the
+    /// estimate between grid points: each frame the mean moves towards the curve by β·b. 0 disables
+    /// it: the estimate is then the parabola through the log-posterior, which leans towards the grid
+    /// point.
+    pub refine_gain: f32,
+    /// Largest distance of the estimate from the posterior's maximum, in grid steps, when
+    /// [`GridTracker::refine_gain`] is on.
+    pub refine_limit: f32,
 }
 
 /// Frame-to-frame changes larger than this (degrees) are jumps, not motion, for the velocity estimate.
@@ -78,6 +89,8 @@ pub struct GridTrackerState {
     quiet: u32,
     /// Reliable frames left that use the onset jump probability.
     onset_left: u32,
+    /// Running mean curve for the position between grid points.
+    running: RunningCurve,
 }
 
 impl Default for GridTrackerState {
@@ -100,6 +113,7 @@ impl GridTrackerState {
             last_b: 0.0,
             quiet: 0,
             onset_left: 0,
+            running: RunningCurve::new(),
         }
     }
 
@@ -192,6 +206,11 @@ impl GridTracker {
         } else {
             0.0
         };
+        if self.refine_gain > 0.0 {
+            state
+                .running
+                .update(&curve[..q], shift, self.refine_gain * state.last_b);
+        }
         let second = (var + shift * shift).min(1.0);
         let up = (0.5 * (second + shift)).max(0.0);
         let down = (0.5 * (second - shift)).max(0.0);
@@ -247,6 +266,43 @@ impl GridTracker {
             state.posterior[..q].fill(uniform);
         }
         &state.posterior[..q]
+    }
+
+    /// The estimate from the posterior of the last [`GridTracker::update`] over the grid
+    /// `azimuths_deg` (degrees), and the index of the posterior's maximum: with
+    /// [`GridTracker::refine_gain`] the vertex of the running mean curve next to that maximum,
+    /// otherwise (or where the mean has no vertex there) the parabola through the log-posterior.
+    /// `None` before the first update or for an empty grid.
+    pub fn estimate(
+        &self,
+        state: &mut GridTrackerState,
+        azimuths_deg: &[f32],
+    ) -> Option<(f32, usize)> {
+        let q = azimuths_deg.len().min(MAX_AZIMUTHS);
+        if !state.initialized {
+            return None;
+        }
+        let post = &state.posterior[..q];
+        let (base, p) = argmax_parabolic_mapped(post, azimuths_deg, |v| libm::logf(v.max(1e-30)))?;
+        if !(self.refine_gain > 0.0) {
+            return Some((base, p));
+        }
+        let Some(d) = state.running.vertex_offset(p, q, self.refine_limit) else {
+            return Some((base, p));
+        };
+        let neighbour = if d < 0.0 {
+            if p == 0 {
+                q - 1
+            } else {
+                p - 1
+            }
+        } else if p == q - 1 {
+            0
+        } else {
+            p + 1
+        };
+        let spacing = wrap_deg(azimuths_deg[neighbour] - azimuths_deg[p]).abs();
+        Some((wrap_deg(azimuths_deg[p] + d * spacing), p))
     }
 
     /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate.
@@ -391,7 +447,48 @@ mod tests {
             onset_jump_probability: 0.0,
             pause_frames: 0,
             onset_frames: 0,
+            refine_gain: 0.0,
+            refine_limit: 1.0,
         }
+    }
+
+    #[test]
+    fn running_mean_refinement_removes_the_pull_towards_the_grid_point() {
+        // A still talker 2° off a 5° grid point, with the product's floor: the log-posterior parabola
+        // leans to the grid point, the running mean curve's vertex does not.
+        let az: [f32; 72] = core::array::from_fn(|i| i as f32 * 5.0);
+        let truth = 52.0f32;
+        let curve: [f32; 72] = core::array::from_fn(|i| {
+            let d = crate::angle::wrap_deg(az[i] - truth);
+            1.0 / (1.0 + 0.01 * d * d)
+        });
+        let run = |t: GridTracker| {
+            let mut s = GridTrackerState::new();
+            assert_eq!(t.estimate(&mut s, &az), None);
+            for _ in 0..100 {
+                t.update(&mut s, &curve, 1.0, 5.0);
+            }
+            t.estimate(&mut s, &az).unwrap()
+        };
+        let plain = GridTracker {
+            likelihood_floor: 0.2,
+            ..base()
+        };
+        let refined = GridTracker {
+            refine_gain: 0.1,
+            ..plain
+        };
+        let (a, p) = run(plain);
+        let (r, pr) = run(refined);
+        assert_eq!((p, pr), (10, 10));
+        assert!((a - truth).abs() > 1.0, "log-posterior parabola: {a}");
+        assert!((r - truth).abs() < 0.3, "running mean vertex: {r}");
+        // The limit keeps the estimate next to the posterior's maximum.
+        let (l, _) = run(GridTracker {
+            refine_limit: 0.2,
+            ..refined
+        });
+        assert!((l - 51.0).abs() < 1e-3, "{l}");
     }
 
     #[test]

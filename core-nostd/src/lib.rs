@@ -63,6 +63,7 @@ pub mod noisy_reference;
 pub mod peak_picker;
 pub mod reference_table;
 pub mod reliability;
+pub mod running_curve;
 pub mod similarity;
 pub mod spectrum;
 pub mod table_file;

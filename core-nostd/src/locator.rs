@@ -23,7 +23,7 @@ use crate::features::feature_from_powers;
 use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::InputGuard;
-use crate::interpolation::{argmax_parabolic, argmax_parabolic_mapped};
+use crate::interpolation::argmax_parabolic;
 use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
@@ -548,8 +548,8 @@ impl<'t> Locator<'t> {
             }
             Tracking::Grid(t) => {
                 let spacing = crate::angle::wrap_deg_360(azimuths[1] - azimuths[0]);
-                let post = t.update(&mut self.tracker, &self.curve[..q], b, spacing);
-                argmax_parabolic_mapped(post, azimuths, |p| libm::logf(p.max(1e-30)))
+                t.update(&mut self.tracker, &self.curve[..q], b, spacing);
+                t.estimate(&mut self.tracker, &azimuths[..q])
             }
         };
         let azimuth = if self.have_history {

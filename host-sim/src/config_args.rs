@@ -130,6 +130,13 @@ pub struct ConfigArgs {
     /// Grid tracker: reliable frames after a pause that use the onset jump probability.
     #[arg(long)]
     pub onset_frames: Option<u32>,
+    /// Grid tracker: gain of the running mean curve that places the estimate between grid points
+    /// (0 = parabola through the log-posterior, the earlier behaviour).
+    #[arg(long)]
+    pub refine_gain: Option<f32>,
+    /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
+    #[arg(long)]
+    pub refine_limit: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -233,6 +240,12 @@ impl ConfigArgs {
         }
         if let Some(v) = self.onset_frames {
             grid.onset_frames = v;
+        }
+        if let Some(v) = self.refine_gain {
+            grid.refine_gain = v;
+        }
+        if let Some(v) = self.refine_limit {
+            grid.refine_limit = v;
         }
         c.tracking = match (self.tracker, c.tracking) {
             (Some(TrackerArg::Onepole), _) => Tracking::OnePole,
