@@ -5,6 +5,7 @@ use crate::combination::{Combination, FdivSpread};
 use crate::direct_sound::DirectSound;
 use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
+use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::NoiseMixing;
 use crate::reliability::Reliability;
 use crate::similarity::SimilarityMeasure;
@@ -45,6 +46,14 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     onset_frames: 3,
     refine_gain: 0.1,
     refine_limit: 1.0,
+};
+
+/// The product's noise-floor gate ([`NoiseGate`]).
+pub const DEFAULT_NOISE_GATE: NoiseGate = NoiseGate {
+    enabled: true,
+    rise_db_per_s: 1.0,
+    open_db: 0.5,
+    full_db: 2.0,
 };
 
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or
@@ -94,6 +103,8 @@ pub struct LocatorConfig {
     // Thesis alternatives (issue 6); the defaults leave the method above unchanged.
     /// Frame quality measures and binary threshold b_TH (§5.1.6, eq. 5.21–5.29, 5.36).
     pub quality: FrameQuality,
+    /// Noise-floor gate of the reliability b (similarity method; not in the thesis).
+    pub noise_gate: NoiseGate,
     /// How the peaks of a frame are combined (§5.1.4: rule 1 mean curve, rule 2 eq. 5.13).
     pub combination: Combination,
     /// Where b filters: the similarity curve (eq. 5.31) or the result in Cartesian form (eq. 5.30).
@@ -136,6 +147,7 @@ impl LocatorConfig {
             tdiv_pole: 0.9,
             fdiv_pole: 0.95,
             quality: FrameQuality::DEFAULT,
+            noise_gate: NoiseGate::OFF,
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,
@@ -153,6 +165,7 @@ impl Default for LocatorConfig {
         c.reliability.v_max = 0.002;
         c.direct_sound.onset_exponent = 1.0;
         c.tracking = Tracking::Grid(DEFAULT_GRID_TRACKER);
+        c.noise_gate = DEFAULT_NOISE_GATE;
         c
     }
 }

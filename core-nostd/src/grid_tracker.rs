@@ -28,7 +28,9 @@ pub struct GridTracker {
     /// Probability ε per frame that the talker jumped anywhere.
     pub jump_probability: f32,
     /// Pole of the angular-velocity estimate that drifts the prediction (0 disables the drift).
-    /// With it the prior moves with a moving talker, so the estimate does not trail behind.
+    /// With it the prior moves with a moving talker, so the estimate does not trail behind. The
+    /// estimate averages the frame-to-frame change of the reported azimuth weighted by the frame's
+    /// reliability b: in a pause it is kept, not learned from the drift itself.
     pub velocity_pole: f32,
     /// Dead zone of the drift, degrees per frame: slower velocity estimates (noise around a still
     /// talker) do not move the prior, faster ones move it by their excess.
@@ -321,10 +323,12 @@ impl GridTracker {
             }
         } else if self.velocity_pole > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite()
         {
+            // The frame-to-frame change, weighted by the frame's reliability: a pause (b = 0), in
+            // which the estimate moves only by the drift, teaches nothing and keeps the velocity.
             let d = crate::angle::wrap_deg(azimuth_deg - state.previous);
             if d.abs() <= MAX_MOTION_STEP_DEG {
-                let a = self.velocity_pole.clamp(0.0, 1.0);
-                state.velocity = a * state.velocity + (1.0 - a) * d;
+                let leak = 1.0 - self.velocity_pole.clamp(0.0, 1.0);
+                state.velocity += leak * state.last_b * (d - state.velocity);
             }
         }
         state.previous = azimuth_deg;
@@ -450,6 +454,34 @@ mod tests {
             refine_gain: 0.0,
             refine_limit: 1.0,
         }
+    }
+
+    #[test]
+    fn velocity_is_learned_from_reliable_frames_only() {
+        let t = GridTracker {
+            velocity_pole: 0.9,
+            ..base()
+        };
+        let curve = peaked(72, 10);
+        let mut s = GridTrackerState::new();
+        // Estimates that move by 1° per frame while b = 0 (a pause, or noise before the talker).
+        for i in 0..20 {
+            t.update(&mut s, &curve, 0.0, 5.0);
+            t.observe_estimate(&mut s, i as f32);
+        }
+        assert_eq!(s.velocity(), 0.0);
+        for i in 20..40 {
+            t.update(&mut s, &curve, 1.0, 5.0);
+            t.observe_estimate(&mut s, i as f32);
+        }
+        assert!((s.velocity() - 1.0).abs() < 0.15, "{}", s.velocity());
+        // A pause keeps what was learned.
+        let v = s.velocity();
+        for i in 40..60 {
+            t.update(&mut s, &curve, 0.0, 5.0);
+            t.observe_estimate(&mut s, 40.0 + (i - 40) as f32 * 3.0);
+        }
+        assert_eq!(s.velocity(), v);
     }
 
     #[test]

@@ -59,6 +59,7 @@ pub mod grid_tracker;
 pub mod input_guard;
 pub mod interpolation;
 pub mod locator;
+pub mod noise_floor;
 pub mod noisy_reference;
 pub mod peak_picker;
 pub mod reference_table;

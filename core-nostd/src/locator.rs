@@ -24,6 +24,7 @@ use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::InputGuard;
 use crate::interpolation::argmax_parabolic;
+use crate::noise_floor::NoiseFloor;
 use crate::noisy_reference::NoisyReferences;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
@@ -74,9 +75,13 @@ pub struct Locator<'t> {
     tdiv: TdivState,
     have_history: bool,
     last_azimuth: f32,
+    /// Frame index and omni energy of the newest hop of the last frame (the next frame's older hop).
+    last_hop_energy: (u32, f32),
     diagnostics: FrameDiagnostics,
     /// State of the eq. 5.30 result filter (issue 6 options).
     cartesian: CartesianFilter,
+    /// Background power for the noise-floor gate.
+    noise_floor: NoiseFloor,
 }
 
 impl<'t> Locator<'t> {
@@ -150,8 +155,10 @@ impl<'t> Locator<'t> {
             fdiv: FdivState::new(),
             tdiv: TdivState::new(),
             cartesian: CartesianFilter::new(),
+            noise_floor: NoiseFloor::idle(),
             have_history: false,
             last_azimuth: 0.0,
+            last_hop_energy: (u32::MAX, 0.0),
             diagnostics: FrameDiagnostics {
                 curve_variance: 0.0,
                 num_peaks: 0,
@@ -183,8 +190,11 @@ impl<'t> Locator<'t> {
         self.fdiv = FdivState::new();
         self.tdiv = TdivState::new();
         self.cartesian = CartesianFilter::new();
+        self.noise_floor =
+            NoiseFloor::new(&config.noise_gate, self.analysis_rate() as f32 / HOP as f32);
         self.have_history = false;
         self.last_azimuth = 0.0;
+        self.last_hop_energy = (u32::MAX, 0.0);
         self.diagnostics = FrameDiagnostics::default();
         Ok(())
     }
@@ -234,6 +244,11 @@ impl<'t> Locator<'t> {
         }
         if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
             return Err(Error::InvalidConfig("thresholds must be ≥ 0"));
+        }
+        if c.noise_gate.enabled && !c.noise_gate.is_valid() {
+            return Err(Error::InvalidConfig(
+                "noise gate: need a finite rise ≥ 0 and open < full",
+            ));
         }
         if !c.quality.is_valid() {
             return Err(Error::InvalidConfig(
@@ -356,8 +371,7 @@ impl<'t> Locator<'t> {
     fn analyze(&mut self) -> Estimate {
         let index = self.front.take_index();
         let mut flags = self.front.flags();
-        let frame_power =
-            self.front.frame()[0].iter().map(|v| v * v).sum::<f32>() / FRAME_LEN as f32;
+        let frame_power = self.frame_power(index);
         if !(frame_power >= self.config.silence_power) {
             flags.insert(Flags::SILENT);
         }
@@ -371,7 +385,14 @@ impl<'t> Locator<'t> {
         };
 
         let (azimuth, raw, confidence) = match self.config.method {
-            Method::Similarity => self.similarity_frame(gate, &mut flags),
+            Method::Similarity => {
+                let gate = if self.config.noise_gate.enabled {
+                    gate * self.noise_floor.update(frame_power)
+                } else {
+                    gate
+                };
+                self.similarity_frame(gate, &mut flags)
+            }
             Method::Fdiv | Method::Tdiv => {
                 let iv = self.intensity_frame(usable);
                 (iv.azimuth_deg, iv.azimuth_raw_deg, iv.confidence * gate)
@@ -390,6 +411,22 @@ impl<'t> Locator<'t> {
             power: frame_power,
             flags,
         }
+    }
+
+    /// Mean-square omni power of the frame with index `index`: its older hop's energy is the newer
+    /// hop's of the frame before, so only one hop is summed per frame.
+    fn frame_power(&mut self, index: u32) -> f32 {
+        let omni = &self.front.frame()[0];
+        let energy = |x: &[f32]| x.iter().map(|v| v * v).sum::<f32>();
+        let (last, last_energy) = self.last_hop_energy;
+        let older = if index > 0 && last == index - 1 {
+            last_energy
+        } else {
+            energy(&omni[..FRAME_LEN - HOP])
+        };
+        let newer = energy(&omni[FRAME_LEN - HOP..]);
+        self.last_hop_energy = (index, newer);
+        (older + newer) / FRAME_LEN as f32
     }
 
     fn intensity_frame(&mut self, usable: bool) -> IvEstimate {
@@ -566,7 +603,9 @@ impl<'t> Locator<'t> {
         } else {
             (azimuth, raw)
         };
-        if let Tracking::Grid(t) = self.config.tracking {
+        // Only tracked estimates teach the tracker its velocity: before the first reliable frame the
+        // raw azimuths of noise would.
+        if let (Tracking::Grid(t), true) = (self.config.tracking, self.have_history) {
             t.observe_estimate(&mut self.tracker, azimuth);
         }
         self.last_azimuth = azimuth;

@@ -46,6 +46,15 @@ pub enum TrackerArg {
     Grid,
 }
 
+/// A switch on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    /// Switched on.
+    On,
+    /// Switched off.
+    Off,
+}
+
 /// Localizer configuration flags. Unset flags keep the preset's value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ConfigArgs {
@@ -137,6 +146,18 @@ pub struct ConfigArgs {
     /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
     #[arg(long)]
     pub refine_limit: Option<f32>,
+    /// Noise-floor gate of the reliability b: on or off.
+    #[arg(long, value_enum)]
+    pub noise_gate: Option<OnOff>,
+    /// Noise-floor gate: largest rise of the tracked floor, dB per second.
+    #[arg(long)]
+    pub gate_rise: Option<f32>,
+    /// Noise-floor gate: frame power above the floor (dB) where b starts to pass.
+    #[arg(long)]
+    pub gate_open: Option<f32>,
+    /// Noise-floor gate: frame power above the floor (dB) where b passes fully.
+    #[arg(long)]
+    pub gate_full: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -252,6 +273,18 @@ impl ConfigArgs {
             (Some(TrackerArg::Grid), _) | (None, Tracking::Grid(_)) => Tracking::Grid(grid),
             (None, Tracking::OnePole) => Tracking::OnePole,
         };
+        if let Some(v) = self.noise_gate {
+            c.noise_gate.enabled = v == OnOff::On;
+        }
+        if let Some(v) = self.gate_rise {
+            c.noise_gate.rise_db_per_s = v;
+        }
+        if let Some(v) = self.gate_open {
+            c.noise_gate.open_db = v;
+        }
+        if let Some(v) = self.gate_full {
+            c.noise_gate.full_db = v;
+        }
         if let Some(v) = self.directness {
             c.direct_sound.directness_exponent = v;
         }

@@ -1,0 +1,154 @@
+//! Noise-floor gate of the frame reliability: a frame whose power does not stand out from the
+//! tracked background carries no localization weight, however peaked its curve happens to be.
+//!
+//! Diffuse noise alone now and then gives a frame a curve with enough variance to pass the
+//! reliability weighting, and before the first words such a frame is all the tracker has seen: it
+//! captures the track. The floor follows the minimum of the frame power (it drops at once and
+//! rises by at most [`NoiseGate::rise_db_per_s`]), and the gate ramps b linearly in power from 0 at
+//! [`NoiseGate::open_db`] above the floor to 1 at [`NoiseGate::full_db`].
+
+/// Gate settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseGate {
+    /// Whether the gate applies.
+    pub enabled: bool,
+    /// Largest rise of the floor, dB per second.
+    pub rise_db_per_s: f32,
+    /// Frame power above the floor (dB) where the gate starts to open.
+    pub open_db: f32,
+    /// Frame power above the floor (dB) where the gate is fully open.
+    pub full_db: f32,
+}
+
+impl NoiseGate {
+    /// The gate off (b unchanged).
+    pub const OFF: Self = Self {
+        enabled: false,
+        rise_db_per_s: 3.0,
+        open_db: 1.0,
+        full_db: 4.0,
+    };
+
+    /// Whether the settings are usable: finite, a non-negative rise and `open_db < full_db`.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.rise_db_per_s >= 0.0
+            && self.rise_db_per_s.is_finite()
+            && self.open_db.is_finite()
+            && self.full_db.is_finite()
+            && self.open_db < self.full_db
+    }
+}
+
+/// The floor's state, with the per-frame constants of a [`NoiseGate`] at one frame rate.
+#[derive(Debug, Clone)]
+pub struct NoiseFloor {
+    floor: f32,
+    rise: f32,
+    open: f32,
+    full: f32,
+}
+
+impl NoiseFloor {
+    /// A floor for `gate` at `frames_per_s` analysis frames per second (no frame seen yet).
+    #[must_use]
+    pub fn new(gate: &NoiseGate, frames_per_s: f32) -> Self {
+        let ratio = |db: f32| libm::powf(10.0, db / 10.0);
+        Self {
+            floor: f32::NAN,
+            rise: ratio(gate.rise_db_per_s / frames_per_s),
+            open: ratio(gate.open_db),
+            full: ratio(gate.full_db),
+        }
+    }
+
+    /// A floor that gates nothing yet (placeholder until [`NoiseFloor::new`]).
+    #[must_use]
+    pub const fn idle() -> Self {
+        Self {
+            floor: f32::NAN,
+            rise: 1.0,
+            open: 0.0,
+            full: 1.0,
+        }
+    }
+
+    /// The tracked floor (mean-square power; NaN before the first frame with positive power).
+    #[must_use]
+    pub fn floor(&self) -> f32 {
+        self.floor
+    }
+
+    /// Takes a frame's mean-square power and returns its gate factor in [0, 1] (0 for a frame
+    /// without positive finite power, which leaves the floor as it is).
+    pub fn update(&mut self, power: f32) -> f32 {
+        if !(power > 0.0 && power.is_finite()) {
+            return 0.0;
+        }
+        let risen = self.floor * self.rise;
+        self.floor = if power < risen || !risen.is_finite() {
+            power
+        } else {
+            risen
+        };
+        let r = power / self.floor;
+        ((r - self.open) / (self.full - self.open)).clamp(0.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GATE: NoiseGate = NoiseGate {
+        enabled: true,
+        rise_db_per_s: 3.0,
+        open_db: 1.0,
+        full_db: 4.0,
+    };
+
+    #[test]
+    fn background_is_gated_and_louder_frames_open_it() {
+        let still = NoiseGate {
+            rise_db_per_s: 0.0,
+            ..GATE
+        };
+        let mut f = NoiseFloor::new(&still, 50.0);
+        assert!(f.floor().is_nan());
+        assert_eq!(f.update(1.0), 0.0);
+        assert_eq!(f.floor(), 1.0);
+        // 0.5 dB above the floor: closed; half-way (in power) between 1 and 4 dB: half open; 6 dB:
+        // open.
+        assert_eq!(f.update(1.122), 0.0);
+        let mid = 0.5 * (libm::powf(10.0, 0.1) + libm::powf(10.0, 0.4));
+        let g = f.update(mid);
+        assert!((g - 0.5).abs() < 1e-5, "{g}");
+        assert_eq!(f.update(4.0), 1.0);
+        assert_eq!(f.floor(), 1.0);
+        // The floor drops at once and rises 3 dB per second at most.
+        let mut f = NoiseFloor::new(&GATE, 50.0);
+        f.update(0.5);
+        assert_eq!(f.floor(), 0.5);
+        for _ in 0..50 {
+            f.update(100.0);
+        }
+        let db = 10.0 * libm::log10f(f.floor() / 0.5);
+        assert!((db - 3.0).abs() < 0.01, "{db}");
+    }
+
+    #[test]
+    fn bad_power_is_closed_and_does_not_move_the_floor() {
+        let mut f = NoiseFloor::new(&GATE, 50.0);
+        f.update(2.0);
+        for p in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(f.update(p), 0.0);
+            assert_eq!(f.floor(), 2.0);
+        }
+        assert!(GATE.is_valid());
+        assert!(!NoiseGate {
+            full_db: 1.0,
+            ..GATE
+        }
+        .is_valid());
+    }
+}
