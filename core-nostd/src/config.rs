@@ -44,6 +44,7 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     onset_jump_probability: 0.3,
     pause_frames: 6,
     onset_frames: 3,
+    onset_likelihood_floor: 0.05,
     refine_gain: 0.1,
     refine_limit: 1.0,
 };

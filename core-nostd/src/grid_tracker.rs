@@ -60,6 +60,11 @@ pub struct GridTracker {
     pub pause_frames: u32,
     /// Reliable frames after a pause that use [`GridTracker::onset_jump_probability`].
     pub onset_frames: u32,
+    /// Likelihood floor of the onset frames (those that use
+    /// [`GridTracker::onset_jump_probability`]), in place of [`GridTracker::likelihood_floor`]: the
+    /// first frames of an utterance carry the most direct sound, so each may move the posterior
+    /// further.
+    pub onset_likelihood_floor: f32,
     /// Gain β of the drift-compensated running mean curve ([`RunningCurve`]) that places the
     /// estimate between grid points: each frame the mean moves towards the curve by β·b. 0 disables
     /// it: the estimate is then the parabola through the log-posterior, which leans towards the grid
@@ -144,14 +149,15 @@ impl GridTracker {
         (0.5 * s * s).clamp(0.0, 1.0 / 3.0)
     }
 
-    /// The jump probability of this frame, with the pause/onset bookkeeping of `state`.
-    fn jump_probability_for(&self, state: &mut GridTrackerState, b: f32) -> f32 {
+    /// The jump probability of this frame and whether it is an onset frame (one of the first
+    /// reliable frames after a pause), with the pause/onset bookkeeping of `state`.
+    fn jump_probability_for(&self, state: &mut GridTrackerState, b: f32) -> (f32, bool) {
         if self.pause_frames == 0 {
-            return self.jump_probability;
+            return (self.jump_probability, false);
         }
         if !(b > 0.0) {
             state.quiet = state.quiet.saturating_add(1);
-            return self.jump_probability;
+            return (self.jump_probability, false);
         }
         if state.quiet >= self.pause_frames {
             state.onset_left = self.onset_frames;
@@ -159,9 +165,9 @@ impl GridTracker {
         state.quiet = 0;
         if state.onset_left > 0 {
             state.onset_left -= 1;
-            self.jump_probability.max(self.onset_jump_probability)
+            (self.jump_probability.max(self.onset_jump_probability), true)
         } else {
-            self.jump_probability
+            (self.jump_probability, false)
         }
     }
 
@@ -217,7 +223,8 @@ impl GridTracker {
         let up = (0.5 * (second + shift)).max(0.0);
         let down = (0.5 * (second - shift)).max(0.0);
         let stay = (1.0 - up - down).max(0.0);
-        let eps = self.jump_probability_for(state, b).clamp(0.0, 1.0);
+        let (eps, onset_frame) = self.jump_probability_for(state, b);
+        let eps = eps.clamp(0.0, 1.0);
         // Same arithmetic for every bin; the two wrapped ends apart so the loop over the inner bins
         // needs neither index wrapping nor bounds checks.
         let (keep, add) = (1.0 - eps, eps * uniform);
@@ -241,7 +248,12 @@ impl GridTracker {
         let s_max = curve[..q]
             .iter()
             .fold(f32::NEG_INFINITY, |m, v| if *v > m { *v } else { m });
-        let floor = self.likelihood_floor.clamp(0.0, 1.0);
+        let floor = if onset_frame {
+            self.onset_likelihood_floor
+        } else {
+            self.likelihood_floor
+        };
+        let floor = floor.clamp(0.0, 1.0);
         let mut sum = 0.0f32;
         let post = &mut state.posterior[..q];
         let prior = &state.scratch[..q];
@@ -414,14 +426,24 @@ mod tests {
             onset_jump_probability: 0.3,
             pause_frames: 6,
             onset_frames: 3,
+            onset_likelihood_floor: 0.2,
             ..t
         };
-        // Without a pause (or with a shorter one) the onset rule changes nothing.
-        assert_eq!(frames_to_switch(onset, 0), frames_to_switch(t, 0));
-        assert_eq!(frames_to_switch(onset, 5), frames_to_switch(t, 5));
-        // After a pause the first reliable frames may jump: the switch comes sooner.
+        let trusted = GridTracker {
+            onset_likelihood_floor: 0.05,
+            ..onset
+        };
+        // Without a pause (or with a shorter one) the onset rules change nothing.
+        for o in [onset, trusted] {
+            assert_eq!(frames_to_switch(o, 0), frames_to_switch(t, 0));
+            assert_eq!(frames_to_switch(o, 5), frames_to_switch(t, 5));
+        }
+        // After a pause the first reliable frames may jump: the switch comes sooner, and sooner
+        // still when each onset frame may move the posterior further.
         let (with, without) = (frames_to_switch(onset, 6), frames_to_switch(t, 6));
         assert!(with + 2 <= without, "{with} vs {without}");
+        let first = frames_to_switch(trusted, 6);
+        assert!(first < with, "{first} vs {with}");
     }
 
     #[test]
@@ -451,6 +473,7 @@ mod tests {
             onset_jump_probability: 0.0,
             pause_frames: 0,
             onset_frames: 0,
+            onset_likelihood_floor: 0.0,
             refine_gain: 0.0,
             refine_limit: 1.0,
         }

@@ -139,6 +139,9 @@ pub struct ConfigArgs {
     /// Grid tracker: reliable frames after a pause that use the onset jump probability.
     #[arg(long)]
     pub onset_frames: Option<u32>,
+    /// Grid tracker: likelihood floor of the onset frames (the first reliable frames after a pause).
+    #[arg(long)]
+    pub onset_floor: Option<f32>,
     /// Grid tracker: gain of the running mean curve that places the estimate between grid points
     /// (0 = parabola through the log-posterior, the earlier behaviour).
     #[arg(long)]
@@ -261,6 +264,9 @@ impl ConfigArgs {
         }
         if let Some(v) = self.onset_frames {
             grid.onset_frames = v;
+        }
+        if let Some(v) = self.onset_floor {
+            grid.onset_likelihood_floor = v;
         }
         if let Some(v) = self.refine_gain {
             grid.refine_gain = v;
