@@ -11,7 +11,7 @@ use std::io::Write;
 pub const BLOCK: usize = 1024;
 
 // Streamed chunks hold whole blocks, so streaming feeds the core exactly the blocks of `locate`.
-const _: () = assert!(crate::wav_io::CHUNK_FRAMES % BLOCK == 0);
+const _: () = assert!(crate::wav_io::CHUNK_FRAMES / BLOCK * BLOCK == crate::wav_io::CHUNK_FRAMES);
 
 /// One analysis frame's result with its time in seconds.
 #[derive(Debug, Clone, Copy, PartialEq)]

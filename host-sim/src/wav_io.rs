@@ -25,8 +25,9 @@ pub struct Recording {
 }
 
 /// Sample frames per chunk a [`WavStream`] reads and decodes at a time (a multiple of the locator's
-/// 1024-frame block): memory stays O(chunk) however long the file.
-pub const CHUNK_FRAMES: usize = 64 * 1024;
+/// 1024-frame block): memory stays O(chunk) however long the file, and the raw, decoded and converted
+/// buffers of a chunk (≤ 64 + 128 + 128 KiB) stay in the L2 cache.
+pub const CHUNK_FRAMES: usize = 8 * 1024;
 
 /// An open WAV whose samples are read and decoded chunk by chunk into a reused buffer.
 ///
@@ -218,10 +219,10 @@ impl WavStream {
                 }
             }
         }
-        if self.pending.is_none() && self.delivered == self.declared && out.len() % ch != 0 {
+        let whole = out.len() - out.len() % ch;
+        if self.pending.is_none() && self.delivered == self.declared && whole != out.len() {
             self.pending = Some(bad("truncated: the last sample frame is incomplete".into()));
         }
-        let whole = out.len() - out.len() % ch;
         self.carry.extend_from_slice(&out[whole..]);
         out.truncate(whole);
         if out.is_empty() {
@@ -279,26 +280,37 @@ fn block_align(path: &Path) -> Option<usize> {
 /// f32 product equals the rounded f64 one; 32-bit goes through f64.
 fn decode_packed(raw: &[u8], format: hound::SampleFormat, bits: u16, out: &mut Vec<f32>) {
     let scale = 1.0 / (1u64 << (bits - 1)) as f64;
-    let int = |v: i32| (v as f64 * scale) as f32;
     let s32 = scale as f32;
+    let bytes = (bits as usize).div_ceil(8);
+    let start = out.len();
+    out.resize(start + raw.len() / bytes, 0.0);
+    let dst = &mut out[start..];
     match (format, bits) {
-        (hound::SampleFormat::Float, _) => out.extend(
-            raw.chunks_exact(4)
-                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
-        ),
-        (_, 8) => out.extend(raw.iter().map(|b| (*b as i32 - 128) as f32 * s32)),
-        (_, 16) => out.extend(
-            raw.chunks_exact(2)
-                .map(|b| i16::from_le_bytes([b[0], b[1]]) as f32 * s32),
-        ),
-        (_, 24) => out.extend(
-            raw.chunks_exact(3)
-                .map(|b| (i32::from_le_bytes([0, b[0], b[1], b[2]]) >> 8) as f32 * s32),
-        ),
-        _ => out.extend(
-            raw.chunks_exact(4)
-                .map(|b| int(i32::from_le_bytes([b[0], b[1], b[2], b[3]]))),
-        ),
+        (hound::SampleFormat::Float, _) => {
+            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(4)) {
+                *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            }
+        }
+        (_, 8) => {
+            for (o, b) in dst.iter_mut().zip(raw) {
+                *o = (*b as i32 - 128) as f32 * s32;
+            }
+        }
+        (_, 16) => {
+            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(2)) {
+                *o = i16::from_le_bytes([b[0], b[1]]) as f32 * s32;
+            }
+        }
+        (_, 24) => {
+            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(3)) {
+                *o = (i32::from_le_bytes([0, b[0], b[1], b[2]]) >> 8) as f32 * s32;
+            }
+        }
+        _ => {
+            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(4)) {
+                *o = (i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64 * scale) as f32;
+            }
+        }
     }
 }
 
@@ -372,13 +384,17 @@ impl RecordingStream {
     pub fn read_chunk(&mut self, out: &mut Vec<[f32; 4]>) -> Result<()> {
         self.wav.read_chunk(&mut self.raw)?;
         out.clear();
-        let c = self.raw.chunks_exact(4);
+        out.resize(self.raw.len() / 4, [0.0; 4]);
         match self.layout {
-            InputLayout::Cma1 => out.extend(c.map(|c| [c[0], c[1], c[2], c[3]])),
-            InputLayout::Ambix => out.extend(c.map(|c| ambix_to_cma1(c[0], c[3], c[1]))),
+            InputLayout::Cma1 => out.as_flattened_mut().copy_from_slice(&self.raw),
+            InputLayout::Ambix => out
+                .iter_mut()
+                .zip(self.raw.chunks_exact(4))
+                .for_each(|(o, c)| *o = ambix_to_cma1(c[0], c[3], c[1])),
             InputLayout::AmbixN3d => {
                 let g = 1.0 / 3f32.sqrt();
-                out.extend(c.map(|c| ambix_to_cma1(c[0], c[3] * g, c[1] * g)));
+                let frames = out.iter_mut().zip(self.raw.chunks_exact(4));
+                frames.for_each(|(o, c)| *o = ambix_to_cma1(c[0], c[3] * g, c[1] * g));
             }
         }
         Ok(())
