@@ -116,34 +116,18 @@ impl InputGuard {
         if !(level > 0.0) {
             return block.is_empty();
         }
-        // x86_64: the same test as an unsigned compare of the shifted bits, OR-ed (no carry chain;
-        // vectorises to SSE2 compares).
-        #[cfg(target_arch = "x86_64")]
-        {
-            let limit = level.to_bits() << 1;
-            let mut at_or_above = false;
-            for x in block {
+        let minus_limit = (level.to_bits() << 1).wrapping_neg();
+        // Counted per chunk, so the count cannot wrap.
+        block.chunks(1 << 16).all(|chunk| {
+            let mut at_or_above = 0u32;
+            for x in chunk {
                 for v in x {
-                    at_or_above |= (v.to_bits() << 1) >= limit;
+                    let (_, carry) = (v.to_bits() << 1).overflowing_add(minus_limit);
+                    at_or_above += u32::from(carry);
                 }
             }
-            !at_or_above
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let minus_limit = (level.to_bits() << 1).wrapping_neg();
-            // Counted per chunk, so the count cannot wrap.
-            block.chunks(1 << 16).all(|chunk| {
-                let mut at_or_above = 0u32;
-                for x in chunk {
-                    for v in x {
-                        let (_, carry) = (v.to_bits() << 1).overflowing_add(minus_limit);
-                        at_or_above += u32::from(carry);
-                    }
-                }
-                at_or_above == 0
-            })
-        }
+            at_or_above == 0
+        })
     }
 
     /// Flags for the analysis frame that ends now.

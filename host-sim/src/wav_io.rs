@@ -281,36 +281,25 @@ fn block_align(path: &Path) -> Option<usize> {
 fn decode_packed(raw: &[u8], format: hound::SampleFormat, bits: u16, out: &mut Vec<f32>) {
     let scale = 1.0 / (1u64 << (bits - 1)) as f64;
     let s32 = scale as f32;
-    let bytes = (bits as usize).div_ceil(8);
-    let start = out.len();
-    out.resize(start + raw.len() / bytes, 0.0);
-    let dst = &mut out[start..];
+    // Exact-size iterators: `extend` writes in place, without zero-filling first.
     match (format, bits) {
-        (hound::SampleFormat::Float, _) => {
-            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(4)) {
-                *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-            }
-        }
-        (_, 8) => {
-            for (o, b) in dst.iter_mut().zip(raw) {
-                *o = (*b as i32 - 128) as f32 * s32;
-            }
-        }
-        (_, 16) => {
-            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(2)) {
-                *o = i16::from_le_bytes([b[0], b[1]]) as f32 * s32;
-            }
-        }
-        (_, 24) => {
-            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(3)) {
-                *o = (i32::from_le_bytes([0, b[0], b[1], b[2]]) >> 8) as f32 * s32;
-            }
-        }
-        _ => {
-            for (o, b) in dst.iter_mut().zip(raw.chunks_exact(4)) {
-                *o = (i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64 * scale) as f32;
-            }
-        }
+        (hound::SampleFormat::Float, _) => out.extend(
+            raw.chunks_exact(4)
+                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        ),
+        (_, 8) => out.extend(raw.iter().map(|b| (*b as i32 - 128) as f32 * s32)),
+        (_, 16) => out.extend(
+            raw.chunks_exact(2)
+                .map(|b| i16::from_le_bytes([b[0], b[1]]) as f32 * s32),
+        ),
+        (_, 24) => out.extend(
+            raw.chunks_exact(3)
+                .map(|b| (i32::from_le_bytes([0, b[0], b[1], b[2]]) >> 8) as f32 * s32),
+        ),
+        _ => out.extend(
+            raw.chunks_exact(4)
+                .map(|b| (i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64 * scale) as f32),
+        ),
     }
 }
 
@@ -384,17 +373,13 @@ impl RecordingStream {
     pub fn read_chunk(&mut self, out: &mut Vec<[f32; 4]>) -> Result<()> {
         self.wav.read_chunk(&mut self.raw)?;
         out.clear();
-        out.resize(self.raw.len() / 4, [0.0; 4]);
+        let c = self.raw.chunks_exact(4);
         match self.layout {
-            InputLayout::Cma1 => out.as_flattened_mut().copy_from_slice(&self.raw),
-            InputLayout::Ambix => out
-                .iter_mut()
-                .zip(self.raw.chunks_exact(4))
-                .for_each(|(o, c)| *o = ambix_to_cma1(c[0], c[3], c[1])),
+            InputLayout::Cma1 => out.extend(c.map(|c| [c[0], c[1], c[2], c[3]])),
+            InputLayout::Ambix => out.extend(c.map(|c| ambix_to_cma1(c[0], c[3], c[1]))),
             InputLayout::AmbixN3d => {
                 let g = 1.0 / 3f32.sqrt();
-                let frames = out.iter_mut().zip(self.raw.chunks_exact(4));
-                frames.for_each(|(o, c)| *o = ambix_to_cma1(c[0], c[3] * g, c[1] * g));
+                out.extend(c.map(|c| ambix_to_cma1(c[0], c[3] * g, c[1] * g)));
             }
         }
         Ok(())
