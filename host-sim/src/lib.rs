@@ -232,9 +232,9 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
     let config = a.config.config()?;
     let measured = a.config.measured_table()?;
     let table = a.config.table(measured.as_ref())?;
-    let rec = wav_io::read_recording(&a.input, a.input_layout)?;
-    let pb = progress_bar(rec.frames.len() as u64);
-    let rows = locate::locate(&rec, config, table, |n| pb.inc(n as u64))?;
+    let mut stream = wav_io::RecordingStream::open(&a.input, a.input_layout)?;
+    let pb = progress_bar(stream.declared_frames() as u64);
+    let rows = locate::locate_stream(&mut stream, config, table, |n| pb.inc(n as u64))?;
     pb.finish_and_clear();
     match &a.csv {
         Some(path) => wav_io::write_atomically(path, |tmp| {

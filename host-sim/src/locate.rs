@@ -2,13 +2,16 @@
 //! one CSV row per analysis frame.
 
 use crate::error::{Result, SimError};
-use crate::wav_io::Recording;
+use crate::wav_io::{Recording, RecordingStream};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
 use std::io::Write;
 
 /// Input sample frames per block handed to the core: one hop at 48 kHz, what the firmware's DMA
 /// half-buffer delivers.
 pub const BLOCK: usize = 1024;
+
+// Streamed chunks hold whole blocks, so streaming feeds the core exactly the blocks of `locate`.
+const _: () = assert!(crate::wav_io::CHUNK_FRAMES / BLOCK * BLOCK == crate::wav_io::CHUNK_FRAMES);
 
 /// One analysis frame's result with its time in seconds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,23 +28,78 @@ pub fn locate(
     rec: &Recording,
     config: LocatorConfig,
     table: ReferenceTable<'_>,
+    progress: impl FnMut(usize),
+) -> Result<Vec<Row>> {
+    let mut run = Run::new(config, table, rec.rate, rec.frames.len() / 256 + 1)?;
+    run.feed(&rec.frames, progress);
+    Ok(run.rows)
+}
+
+/// Runs the localizer over a recording read chunk by chunk (memory O(chunk), not O(file)), with the
+/// same blocks and so the same rows as [`locate`] on the whole recording. Truncated or corrupt data is
+/// an error (after the frames before it were processed); `progress` as in [`locate`].
+pub fn locate_stream(
+    stream: &mut RecordingStream,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
     mut progress: impl FnMut(usize),
 ) -> Result<Vec<Row>> {
-    let mut loc = Locator::new(config, table, rec.rate).map_err(|source| SimError::Core {
-        context: "configuration".into(),
-        source,
-    })?;
-    let mut rows = Vec::with_capacity(rec.frames.len() / 256 + 1);
-    for block in rec.frames.chunks(BLOCK) {
-        loc.process_block(block, |e| {
-            rows.push(Row {
-                t_s: e.time_s(rec.rate),
-                estimate: *e,
-            })
-        });
-        progress(block.len());
+    let mut run = Run::new(
+        config,
+        table,
+        stream.rate(),
+        stream.declared_frames() / 256 + 1,
+    )?;
+    let mut chunk = Vec::new();
+    loop {
+        stream.read_chunk(&mut chunk)?;
+        if chunk.is_empty() {
+            return Ok(run.rows);
+        }
+        run.feed(&chunk, &mut progress);
     }
-    Ok(rows)
+}
+
+/// A localizer and the rows it has emitted.
+struct Run<'t> {
+    loc: Locator<'t>,
+    rate: u32,
+    rows: Vec<Row>,
+}
+
+impl<'t> Run<'t> {
+    fn new(
+        config: LocatorConfig,
+        table: ReferenceTable<'t>,
+        rate: u32,
+        rows: usize,
+    ) -> Result<Self> {
+        let loc = Locator::new(config, table, rate).map_err(|source| SimError::Core {
+            context: "configuration".into(),
+            source,
+        })?;
+        Ok(Self {
+            loc,
+            rate,
+            rows: Vec::with_capacity(rows),
+        })
+    }
+
+    /// Feeds frames in blocks of [`BLOCK`] (`frames` starts on a block boundary: every chunk but the
+    /// last is a multiple of [`BLOCK`]).
+    fn feed(&mut self, frames: &[[f32; 4]], mut progress: impl FnMut(usize)) {
+        let rate = self.rate;
+        for block in frames.chunks(BLOCK) {
+            let rows = &mut self.rows;
+            self.loc.process_block(block, |e| {
+                rows.push(Row {
+                    t_s: e.time_s(rate),
+                    estimate: *e,
+                })
+            });
+            progress(block.len());
+        }
+    }
 }
 
 /// CSV header of [`write_csv`].
