@@ -116,7 +116,22 @@ impl InputGuard {
         if !(level > 0.0) {
             return block.is_empty();
         }
-        let minus_limit = (level.to_bits() << 1).wrapping_neg();
+        #[cfg(target_arch = "x86_64")]
+        {
+            sse::none_at_or_above(block, level.to_bits() << 1)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Self::count_at_or_above_is_zero(block, level.to_bits() << 1)
+        }
+    }
+
+    /// The portable form of [`InputGuard::all_below_level`]'s scan for a level with doubled bits
+    /// `limit` (≥ 2): whether no value has u = 2·abs_bits(v) ≥ `limit`, by counting carries.
+    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+    #[inline]
+    fn count_at_or_above_is_zero(block: &[[f32; CHANNELS]], limit: u32) -> bool {
+        let minus_limit = limit.wrapping_neg();
         // Counted per chunk, so the count cannot wrap.
         block.chunks(1 << 16).all(|chunk| {
             let mut at_or_above = 0u32;
@@ -141,6 +156,43 @@ impl InputGuard {
             f.insert(Flags::NON_FINITE);
         }
         f
+    }
+}
+
+/// The x86_64 scan of [`InputGuard::all_below_level`]: a sample frame is one SSE2 vector, so the test
+/// of its four values is a shift, an XOR and a compare (instead of the vectorised carry count, which
+/// transposes the frames first). Host only: the Cortex-M4F keeps the carry count.
+#[cfg(target_arch = "x86_64")]
+mod sse {
+    use crate::CHANNELS;
+    use core::arch::x86_64::{
+        _mm_add_epi32, _mm_cmpgt_epi32, _mm_loadu_si128, _mm_movemask_epi8, _mm_or_si128,
+        _mm_set1_epi32, _mm_setzero_si128, _mm_xor_si128,
+    };
+
+    /// Whether no value v of `block` has u = 2·abs_bits(v) ≥ `limit` (unsigned; `limit` ≥ 2, the
+    /// doubled bits of a level > 0). Unsigned u ≥ limit ⟺ u > limit − 1 ⟺ (u ⊕ 2³¹) > (limit − 1)
+    /// ⊕ 2³¹ as signed integers, which `_mm_cmpgt_epi32` tests; the lanes that fail are ORed together.
+    #[allow(unsafe_code)]
+    #[inline]
+    pub(super) fn none_at_or_above(block: &[[f32; CHANNELS]], limit: u32) -> bool {
+        const SIGN: i32 = i32::MIN;
+        let threshold = (limit.wrapping_sub(1) as i32) ^ SIGN;
+        // SAFETY: SSE2 is enabled on every x86_64 target, so the intrinsics exist; they work on
+        // registers only, except `_mm_loadu_si128`, which reads the 16 bytes of one `[f32; 4]`
+        // element of `block` through a reference to it (valid, and the unaligned load needs no
+        // alignment).
+        unsafe {
+            let sign = _mm_set1_epi32(SIGN);
+            let t = _mm_set1_epi32(threshold);
+            let mut bad = _mm_setzero_si128();
+            for x in block {
+                let bits = _mm_loadu_si128(x.as_ptr().cast());
+                let u = _mm_xor_si128(_mm_add_epi32(bits, bits), sign);
+                bad = _mm_or_si128(bad, _mm_cmpgt_epi32(u, t));
+            }
+            _mm_movemask_epi8(bad) == 0
+        }
     }
 }
 
@@ -199,6 +251,63 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The x86_64 scan agrees with the portable carry count on random bit patterns (NaN, ±Inf,
+    /// subnormals included) and on values at and next to the level, for random levels.
+    #[test]
+    fn sse_scan_equals_carry_count() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 32) as u32
+        };
+        for round in 0..4000 {
+            let level_bits = match round % 4 {
+                0 => 1.0f32.to_bits(),
+                1 => 0.999f32.to_bits(),
+                2 => next() & 0x7fff_ffff,
+                _ => f32::INFINITY.to_bits(),
+            };
+            let level = f32::from_bits(level_bits);
+            if !(level > 0.0) {
+                continue;
+            }
+            let len = (next() % 9) as usize;
+            let block: [[f32; CHANNELS]; 8] = core::array::from_fn(|_| {
+                core::array::from_fn(|_| {
+                    let r = next();
+                    let bits = match r % 5 {
+                        0 => r,
+                        1 => level_bits.wrapping_add(r % 3).wrapping_sub(1) | (r & 0x8000_0000),
+                        2 => [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0]
+                            [r as usize % 5]
+                            .to_bits(),
+                        _ => ((r % 1000) as f32).to_bits() >> (r % 2),
+                    };
+                    f32::from_bits(bits)
+                })
+            });
+            let limit = level_bits << 1;
+            #[cfg(target_arch = "x86_64")]
+            assert_eq!(
+                super::sse::none_at_or_above(&block[..len], limit),
+                InputGuard::count_at_or_above_is_zero(&block[..len], limit),
+                "level {level} block {:?}",
+                &block[..len]
+            );
+            let g = InputGuard {
+                clip_level: level,
+                hold_samples: 1,
+            };
+            let below = block[..len]
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite() && v.abs() < level);
+            assert_eq!(g.all_below_level(&block[..len]), below);
         }
     }
 

@@ -499,11 +499,25 @@ impl<'t> Locator<'t> {
             y: [0.0; 3],
             weight: 0.0,
         }; MAX_PEAKS];
+        // On x86_64 the cardioid bins of all peaks first, two recursions at a time (the Cortex-M4F
+        // computes each where it is used).
+        #[cfg(target_arch = "x86_64")]
+        let xcs = {
+            let mut xcs = [[Complex32::new(0.0, 0.0); 3]; MAX_PEAKS];
+            let [_, f1, f2, f3] = &self.spectra;
+            crate::spectrum::dft_bins3_many([f1, f2, f3], self.peaks.bins(), &mut xcs);
+            xcs
+        };
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
             let p0 = self.omni_power[k];
-            let [_, f1, f2, f3] = &self.spectra;
-            let xc = dft_bins3([f1, f2, f3], k);
+            #[cfg(target_arch = "x86_64")]
+            let xc = xcs[i];
+            #[cfg(not(target_arch = "x86_64"))]
+            let xc = {
+                let [_, f1, f2, f3] = &self.spectra;
+                dft_bins3([f1, f2, f3], k)
+            };
             let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
             let Some(y) = feature_from_powers(p0, pc) else {
                 continue;
