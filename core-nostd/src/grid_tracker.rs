@@ -138,6 +138,26 @@ impl GridTrackerState {
 }
 
 impl GridTracker {
+    /// Whether the settings are usable: every value finite, probabilities, poles, floors and the
+    /// refinement gain in [0, 1], the rest ≥ 0.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        let unit = |v: f32| (0.0..=1.0).contains(&v);
+        let non_negative = |v: f32| v >= 0.0 && v.is_finite();
+        non_negative(self.sharpness)
+            && non_negative(self.diffusion_deg)
+            && unit(self.jump_probability)
+            && unit(self.velocity_pole)
+            && non_negative(self.min_velocity_deg)
+            && non_negative(self.velocity_gain)
+            && unit(self.likelihood_floor)
+            && non_negative(self.motion_diffusion)
+            && unit(self.onset_jump_probability)
+            && unit(self.onset_likelihood_floor)
+            && unit(self.refine_gain)
+            && non_negative(self.refine_limit)
+    }
+
     /// Side weight of the 3-tap random-walk kernel [a, 1 − 2a, a] for a grid spacing in degrees
     /// (variance 2a bins², capped at a = ⅓).
     #[must_use]
@@ -476,6 +496,41 @@ mod tests {
             onset_likelihood_floor: 0.0,
             refine_gain: 0.0,
             refine_limit: 1.0,
+        }
+    }
+
+    #[test]
+    fn settings_are_checked() {
+        assert!(crate::config::DEFAULT_GRID_TRACKER.is_valid());
+        assert!(base().is_valid());
+        let d = crate::config::DEFAULT_GRID_TRACKER;
+        for bad in [
+            GridTracker {
+                sharpness: f32::NAN,
+                ..d
+            },
+            GridTracker {
+                jump_probability: 1.5,
+                ..d
+            },
+            GridTracker {
+                likelihood_floor: -0.1,
+                ..d
+            },
+            GridTracker {
+                onset_likelihood_floor: f32::INFINITY,
+                ..d
+            },
+            GridTracker {
+                refine_gain: f32::NAN,
+                ..d
+            },
+            GridTracker {
+                refine_limit: -1.0,
+                ..d
+            },
+        ] {
+            assert!(!bad.is_valid(), "{bad:?}");
         }
     }
 

@@ -250,6 +250,13 @@ impl<'t> Locator<'t> {
                 "noise gate: need a finite rise ≥ 0 and open < full",
             ));
         }
+        if let Tracking::Grid(t) = c.tracking {
+            if !t.is_valid() {
+                return Err(Error::InvalidConfig(
+                    "grid tracker: values finite; probabilities, poles, floors, refine gain in [0, 1]; the rest ≥ 0",
+                ));
+            }
+        }
         if !c.quality.is_valid() {
             return Err(Error::InvalidConfig(
                 "quality: scales must be > 0 and finite",
@@ -677,5 +684,41 @@ impl<'t> Locator<'t> {
             azimuth_raw_deg: mean,
             confidence: b,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::DEFAULT_GRID_TRACKER;
+
+    #[test]
+    fn invalid_settings_are_errors_not_panics() {
+        let table = ReferenceTable::ideal_5deg();
+        assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
+        assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
+        let mut bad = [LocatorConfig::default(); 5];
+        bad[0].band_hi_hz = 100.0;
+        bad[1].num_peaks = 0;
+        bad[2].noise_gate.full_db = bad[2].noise_gate.open_db;
+        bad[3].tracking = Tracking::Grid(crate::grid_tracker::GridTracker {
+            refine_gain: 2.0,
+            ..DEFAULT_GRID_TRACKER
+        });
+        bad[4].tracking = Tracking::Grid(crate::grid_tracker::GridTracker {
+            onset_likelihood_floor: f32::NAN,
+            ..DEFAULT_GRID_TRACKER
+        });
+        for (i, c) in bad.into_iter().enumerate() {
+            assert!(
+                matches!(Locator::new(c, table, 48_000), Err(Error::InvalidConfig(_))),
+                "case {i}"
+            );
+        }
+        // A switched-off gate is not checked.
+        let mut off = LocatorConfig::default();
+        off.noise_gate.enabled = false;
+        off.noise_gate.full_db = f32::NAN;
+        assert!(Locator::new(off, table, 48_000).is_ok());
     }
 }

@@ -143,6 +143,12 @@ fn bad_flags() {
     assert!(m.contains("num_peaks"), "{m}");
     let m = err_of(&["locate", &w, "--band-hi", "9000"]);
     assert!(m.contains("band"), "{m}");
+    let m = err_of(&["locate", &w, "--gate-open", "3", "--gate-full", "2"]);
+    assert!(m.contains("noise gate"), "{m}");
+    let m = err_of(&["locate", &w, "--refine-gain", "1.5"]);
+    assert!(m.contains("grid tracker"), "{m}");
+    let m = err_of(&["locate", &w, "--noise-gate", "maybe"]);
+    assert!(m.contains("--noise-gate"), "{m}");
     let m = err_of(&[
         "scene",
         "--out",
