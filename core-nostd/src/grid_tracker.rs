@@ -13,8 +13,7 @@
 //! frames moves the posterior at once, so jumps are followed in a few frames; and because the motion
 //! model diffuses instead of averaging old curves, a moving talker is followed without lag.
 
-use crate::angle::wrap_deg;
-use crate::interpolation::argmax_parabolic_mapped;
+use crate::interpolation::{argmax_parabolic_mapped, offset_azimuth};
 use crate::running_curve::RunningCurve;
 use crate::MAX_AZIMUTHS;
 
@@ -324,19 +323,7 @@ impl GridTracker {
         let Some(d) = state.running.vertex_offset(p, q, self.refine_limit) else {
             return Some((base, p));
         };
-        let neighbour = if d < 0.0 {
-            if p == 0 {
-                q - 1
-            } else {
-                p - 1
-            }
-        } else if p == q - 1 {
-            0
-        } else {
-            p + 1
-        };
-        let spacing = wrap_deg(azimuths_deg[neighbour] - azimuths_deg[p]).abs();
-        Some((wrap_deg(azimuths_deg[p] + d * spacing), p))
+        Some((offset_azimuth(&azimuths_deg[..q], p, d), p))
     }
 
     /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate.

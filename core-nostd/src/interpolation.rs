@@ -38,22 +38,47 @@ pub fn argmax_parabolic_mapped(
     if q < 3 {
         return Some((wrap_deg(azimuths_deg[p]), p));
     }
-    let pm1 = if p == 0 { q - 1 } else { p - 1 };
-    let pp1 = if p == q - 1 { 0 } else { p + 1 };
+    let (pm1, pp1) = neighbours(p, q);
     let (sm, s0, sp) = (map(curve[pm1]), map(curve[p]), map(curve[pp1]));
+    // A flat top (no vertex) or a numerically degenerate fit keeps the grid point.
+    let delta = vertex(sm, s0, sp).map_or(0.0, |d| d.clamp(-0.5, 0.5));
+    Some((offset_azimuth(&azimuths_deg[..q], p, delta), p))
+}
+
+/// The circular neighbours (p − 1, p + 1) of grid point `p` among `q` ≥ 1 points.
+#[must_use]
+#[inline]
+pub fn neighbours(p: usize, q: usize) -> (usize, usize) {
+    let pm1 = if p == 0 { q - 1 } else { p - 1 };
+    let pp1 = if p + 1 >= q { 0 } else { p + 1 };
+    (pm1, pp1)
+}
+
+/// Vertex of the parabola through (−1, `sm`), (0, `s0`), (1, `sp`), in grid steps from the middle
+/// point (eq. 4.27); `None` unless the parabola opens downwards (a maximum).
+#[must_use]
+#[inline]
+pub fn vertex(sm: f32, s0: f32, sp: f32) -> Option<f32> {
     let den = 2.0 * (sm - 2.0 * s0 + sp);
-    // A flat top (den = 0) or a numerically degenerate fit keeps the grid point.
-    let delta = if den < 0.0 {
-        ((sm - sp) / den).clamp(-0.5, 0.5)
+    if den < 0.0 {
+        Some((sm - sp) / den)
     } else {
-        0.0
-    };
+        None
+    }
+}
+
+/// The azimuth (degrees, (−180, 180]) `delta` grid steps from grid point `p` of the circular grid
+/// `azimuths_deg` (at least 3 points), the step measured towards the neighbour on `delta`'s side.
+#[must_use]
+#[inline]
+pub fn offset_azimuth(azimuths_deg: &[f32], p: usize, delta: f32) -> f32 {
+    let (pm1, pp1) = neighbours(p, azimuths_deg.len());
     let spacing = if delta < 0.0 {
         wrap_deg(azimuths_deg[p] - azimuths_deg[pm1])
     } else {
         wrap_deg(azimuths_deg[pp1] - azimuths_deg[p])
     };
-    Some((wrap_deg(azimuths_deg[p] + delta * spacing), p))
+    wrap_deg(azimuths_deg[p] + delta * spacing)
 }
 
 #[cfg(test)]

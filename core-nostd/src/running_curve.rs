@@ -9,6 +9,7 @@
 //! trailing behind. The estimate is the vertex of the parabola through this mean at the posterior's
 //! maximum and its two neighbours.
 
+use crate::interpolation::{neighbours, vertex};
 use crate::MAX_AZIMUTHS;
 
 /// The running mean curve over the azimuth grid.
@@ -90,15 +91,10 @@ impl RunningCurve {
         if q < 3 || p >= q {
             return None;
         }
-        let pm1 = if p == 0 { q - 1 } else { p - 1 };
-        let pp1 = if p == q - 1 { 0 } else { p + 1 };
+        let (pm1, pp1) = neighbours(p, q);
         let (sm, s0, sp) = (self.mean[pm1], self.mean[p], self.mean[pp1]);
         if !(sm.is_finite() && s0.is_finite() && sp.is_finite()) {
             self.mean = [0.0; MAX_AZIMUTHS];
-            return None;
-        }
-        let den = 2.0 * (sm - 2.0 * s0 + sp);
-        if !(den < 0.0) {
             return None;
         }
         let limit = if limit.is_finite() {
@@ -106,12 +102,9 @@ impl RunningCurve {
         } else {
             0.0
         };
-        let d = (sm - sp) / den;
-        if d.is_finite() {
-            Some(d.clamp(-limit, limit))
-        } else {
-            None
-        }
+        vertex(sm, s0, sp)
+            .filter(|d| d.is_finite())
+            .map(|d| d.clamp(-limit, limit))
     }
 }
 
