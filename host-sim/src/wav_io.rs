@@ -239,16 +239,25 @@ impl WavStream {
 /// Reads all samples of a WAV as f32 (full scale ±1), interleaved, with its spec.
 pub fn read_interleaved(path: &Path) -> Result<(hound::WavSpec, Vec<f32>)> {
     let mut stream = WavStream::open(path)?;
-    let mut out = Vec::with_capacity(stream.declared);
+    let out = read_all(stream.declared, |chunk| stream.read_chunk(chunk))?;
+    Ok((stream.spec, out))
+}
+
+/// Collects every chunk that `read_chunk` yields (an empty chunk ends the data) into one vector
+/// with room for `declared` items.
+fn read_all<T: Copy>(
+    declared: usize,
+    mut read_chunk: impl FnMut(&mut Vec<T>) -> Result<()>,
+) -> Result<Vec<T>> {
+    let mut out = Vec::with_capacity(declared);
     let mut chunk = Vec::new();
     loop {
-        stream.read_chunk(&mut chunk)?;
+        read_chunk(&mut chunk)?;
         if chunk.is_empty() {
-            break;
+            return Ok(out);
         }
         out.extend_from_slice(&chunk);
     }
-    Ok((stream.spec, out))
 }
 
 /// `block_align` of the file's `fmt ` chunk (bytes per sample frame), if the RIFF header can be walked.
@@ -389,15 +398,7 @@ impl RecordingStream {
 /// Reads a 4-channel recording and converts it to CMA1 order.
 pub fn read_recording(path: &Path, layout: InputLayout) -> Result<Recording> {
     let mut stream = RecordingStream::open(path, layout)?;
-    let mut frames = Vec::with_capacity(stream.declared_frames());
-    let mut chunk = Vec::new();
-    loop {
-        stream.read_chunk(&mut chunk)?;
-        if chunk.is_empty() {
-            break;
-        }
-        frames.extend_from_slice(&chunk);
-    }
+    let frames = read_all(stream.declared_frames(), |chunk| stream.read_chunk(chunk))?;
     Ok(Recording {
         rate: stream.rate(),
         frames,
