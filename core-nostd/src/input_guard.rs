@@ -258,13 +258,8 @@ mod tests {
     /// subnormals included) and on values at and next to the level, for random levels.
     #[test]
     fn sse_scan_equals_carry_count() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 32) as u32
-        };
+        let mut rng = crate::test_rng::XorShift64(0x9e37_79b9_7f4a_7c15);
+        let mut next = || (rng.next_u64() >> 32) as u32;
         for round in 0..4000 {
             let level_bits = match round % 4 {
                 0 => 1.0f32.to_bits(),

@@ -70,6 +70,8 @@ pub mod spectrum;
 pub mod table_file;
 pub mod tables;
 pub mod tdiv;
+#[cfg(test)]
+mod test_rng;
 pub mod wire;
 
 pub use config::{LocatorConfig, Method};

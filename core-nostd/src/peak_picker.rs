@@ -256,7 +256,7 @@ mod tests {
     /// must not change the picked peaks.
     #[test]
     fn reads_only_the_bins_it_names() {
-        let mut seed = 7u32;
+        let mut rng = crate::test_rng::Lcg(7);
         for (lo, hi) in [(1, 255), (9, 171), (2, 20), (0, 300), (30, 29)] {
             let pk = PeakPicker {
                 lo_bin: lo,
@@ -267,8 +267,7 @@ mod tests {
             };
             let mut p = [0.0f32; crate::NUM_BINS];
             for v in p.iter_mut() {
-                seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                *v = (seed >> 8) as f32 / (1u32 << 24) as f32;
+                *v = rng.unit();
             }
             let reads = pk.reads();
             let mut masked = [f32::NAN; crate::NUM_BINS];
@@ -302,11 +301,8 @@ mod tests {
     /// picks, on random spectra with plateaus, zeros, NaN and ∞, thresholds and bands over 64 bins.
     #[test]
     fn maxima_scan_equals_plain_scan() {
-        let mut seed = 11u32;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            seed >> 8
-        };
+        let mut rng = crate::test_rng::Lcg(11);
+        let mut rnd = move || rng.next_u32() >> 8;
         for round in 0..300 {
             let mut p = [0.0f32; crate::NUM_BINS];
             for v in p.iter_mut() {

@@ -558,10 +558,9 @@ mod tests {
                 [0.0, 1.2, 0.1],
                 [2.0, 0.0, 0.0],
             ]);
-            let mut seed = 99u32;
+            let mut rng = crate::test_rng::Lcg(99);
             for y in ys[4..].iter_mut().flatten() {
-                seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                *y = (seed >> 8) as f32 / (1u32 << 24) as f32 * 1.5;
+                *y = rng.unit() * 1.5;
             }
             let mut cache = RowCache::new();
             for y in ys {
@@ -602,11 +601,8 @@ mod tests {
             noisy: NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap(),
             mean_free: false,
         };
-        let mut seed = 5u32;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rng = crate::test_rng::Lcg(5);
+        let mut rnd = || rng.unit();
         let rows = [0usize, 0, 0, 1, 2, 2, 0, 1, 1, 1, 1, 2];
         let peaks: [PeakFeature; 12] = core::array::from_fn(|i| PeakFeature {
             fi: rows[i],
@@ -644,11 +640,8 @@ mod tests {
     /// counts that are not multiples of four.
     #[test]
     fn cached_kernel_equals_scalar_bit_for_bit() {
-        let mut seed = 0x1234_5678u32;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rng = crate::test_rng::Lcg(0x1234_5678);
+        let mut rnd = move || rng.unit();
         let special = [
             0.5,
             0.0,

@@ -387,12 +387,9 @@ mod tests {
     #[test]
     fn matches_f64_dft_including_dc_and_nyquist() {
         let mut frame = [0.0f32; FRAME_LEN];
-        let mut seed = 12345u32;
+        let mut rng = crate::test_rng::Lcg(12345);
         for (n, v) in frame.iter_mut().enumerate() {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            *v = 0.3
-                + ((seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5)
-                + if n % 2 == 0 { 0.25 } else { -0.25 };
+            *v = 0.3 + (rng.unit() - 0.5) + if n % 2 == 0 { 0.25 } else { -0.25 };
         }
         let mut scratch = [0.0; FRAME_LEN];
         let mut out = [Complex32::new(0.0, 0.0); NUM_BINS];
@@ -421,12 +418,10 @@ mod tests {
     #[test]
     fn direct_bins_match_f64_dft() {
         let mut frames = [[0.0f32; FRAME_LEN]; 3];
-        let mut seed = 4242u32;
+        let mut rng = crate::test_rng::Lcg(4242);
         for (ch, f) in frames.iter_mut().enumerate() {
             for (n, v) in f.iter_mut().enumerate() {
-                seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-                *v = 0.5 * libm::cosf(0.05 * n as f32 * (ch + 2) as f32)
-                    + ((seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5);
+                *v = 0.5 * libm::cosf(0.05 * n as f32 * (ch + 2) as f32) + (rng.unit() - 0.5);
             }
         }
         let mut folds = [[Complex32::new(0.0, 0.0); NUM_BINS]; 3];
@@ -457,13 +452,11 @@ mod tests {
     #[test]
     fn direct_bins_equal_fft_bins() {
         let mut frames = [[0.0f32; FRAME_LEN]; 3];
-        let mut seed = 777u32;
+        let mut rng = crate::test_rng::Lcg(777);
         for (ch, f) in frames.iter_mut().enumerate() {
             for (n, v) in f.iter_mut().enumerate() {
-                seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
                 let t = n as f32;
-                *v = 0.2 * libm::sinf(0.3 * t * (ch + 1) as f32)
-                    + ((seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5);
+                *v = 0.2 * libm::sinf(0.3 * t * (ch + 1) as f32) + (rng.unit() - 0.5);
             }
         }
         let mut scratch = [0.0; FRAME_LEN];
@@ -497,13 +490,8 @@ mod tests {
     /// and multiplicities, on random folds with NaN, ±Inf, huge and subnormal values.
     #[test]
     fn many_equals_single() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = crate::test_rng::XorShift64(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.next_u64();
         let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
         for round in 0..300 {
             let mut folds = [[Complex32::new(0.0, 0.0); NUM_BINS]; 3];
