@@ -50,13 +50,12 @@ pub fn locate_stream(
         stream.rate(),
         stream.declared_frames() / 256 + 1,
     )?;
-    let mut chunk = Vec::new();
     loop {
-        stream.read_chunk(&mut chunk)?;
+        let chunk = stream.next_chunk()?;
         if chunk.is_empty() {
             return Ok(run.rows);
         }
-        run.feed(&chunk, &mut progress);
+        run.feed(chunk, &mut progress);
     }
 }
 

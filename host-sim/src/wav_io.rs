@@ -337,6 +337,8 @@ pub struct RecordingStream {
     wav: WavStream,
     layout: InputLayout,
     raw: Vec<f32>,
+    /// Converted frames of an AmbiX chunk.
+    frames: Vec<[f32; 4]>,
 }
 
 impl RecordingStream {
@@ -362,6 +364,7 @@ impl RecordingStream {
             wav,
             layout,
             raw: Vec::new(),
+            frames: Vec::new(),
         })
     }
 
@@ -380,18 +383,35 @@ impl RecordingStream {
     /// Replaces `out` with the next up to [`CHUNK_FRAMES`] sample frames in CMA1 order; empty at the
     /// end. Errors as [`WavStream::read_chunk`].
     pub fn read_chunk(&mut self, out: &mut Vec<[f32; 4]>) -> Result<()> {
-        self.wav.read_chunk(&mut self.raw)?;
+        let frames = self.next_chunk()?;
         out.clear();
-        let c = self.raw.chunks_exact(4);
+        out.extend_from_slice(frames);
+        Ok(())
+    }
+
+    /// The next up to [`CHUNK_FRAMES`] sample frames in CMA1 order, borrowed from the stream's buffer
+    /// (a CMA1 file's samples are not copied again: the decoded interleaved samples are the frames);
+    /// empty at the end. Errors as [`WavStream::read_chunk`].
+    pub fn next_chunk(&mut self) -> Result<&[[f32; 4]]> {
+        self.wav.read_chunk(&mut self.raw)?;
+        // `read_chunk` returns whole sample frames of the 4 channels `open` checked.
+        let (c, _) = self.raw.as_chunks::<4>();
+        let convert = |g: f32| {
+            c.iter()
+                .map(move |c| ambix_to_cma1(c[0], c[3] * g, c[1] * g))
+        };
         match self.layout {
-            InputLayout::Cma1 => out.extend(c.map(|c| [c[0], c[1], c[2], c[3]])),
-            InputLayout::Ambix => out.extend(c.map(|c| ambix_to_cma1(c[0], c[3], c[1]))),
+            InputLayout::Cma1 => return Ok(c),
+            InputLayout::Ambix => {
+                self.frames.clear();
+                self.frames.extend(convert(1.0));
+            }
             InputLayout::AmbixN3d => {
-                let g = 1.0 / 3f32.sqrt();
-                out.extend(c.map(|c| ambix_to_cma1(c[0], c[3] * g, c[1] * g)));
+                self.frames.clear();
+                self.frames.extend(convert(1.0 / 3f32.sqrt()));
             }
         }
-        Ok(())
+        Ok(&self.frames)
     }
 }
 
