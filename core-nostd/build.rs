@@ -91,6 +91,8 @@ fn main() {
     twiddle.push_str("];\n");
     out.push_str(&twiddle);
 
+    fft_tables(&mut out);
+
     let short = halfband_allpass(2, 1.0 / 3.0);
     write_f32_array(
         &mut out,
@@ -155,6 +157,54 @@ fn main() {
     let path = std::path::Path::new(&std::env::var("OUT_DIR").unwrap()).join("tables.rs");
     std::fs::write(path, out).unwrap();
     println!("cargo:rerun-if-changed=build.rs");
+}
+
+/// The twiddles of the x86_64 spectrum (`fft_x86.rs`), which reproduces `microfft::real::rfft_512`
+/// bit for bit: microfft's sine table for 512 points, −sin(2π(i + 1)/512) for i < 127, and from it
+/// the twiddle (re, im) of every butterfly k < m of every stage m = 2, 4, …, 128 of its 256-point
+/// complex transform, each value twice (one complex per pair of SSE lanes), stage m from entry m − 2.
+fn fft_tables(out: &mut String) {
+    const L: usize = 127;
+    let sine: Vec<f64> = (0..L)
+        .map(|i| f64::from(-(2.0 * PI * (i + 1) as f64 / 512.0).sin() as f32))
+        .collect();
+    write_f32_array(
+        out,
+        "/// microfft's sine table for 512 points: −sin(2π(i + 1)/512), i < 127.",
+        "FFT_SINE_512",
+        &sine,
+    );
+    let (mut re, mut im) = (Vec::new(), Vec::new());
+    let mut m = 2;
+    while m <= 128 {
+        let (u, stride) = (m / 2, 256 / m);
+        for k in 0..m {
+            let (tr, ti) = if k == 0 {
+                (1.0, 0.0)
+            } else if k < u {
+                (-sine[L - k * stride], sine[k * stride - 1])
+            } else if k == u {
+                (0.0, -1.0)
+            } else {
+                (sine[(k - u) * stride - 1], sine[L - (k - u) * stride])
+            };
+            re.extend([tr, tr]);
+            im.extend([ti, ti]);
+        }
+        m *= 2;
+    }
+    write_f32_array(
+        out,
+        "/// Real parts of the butterfly twiddles of the 256-point complex FFT, each twice (see build.rs).",
+        "FFT_TWIDDLE_RE2",
+        &re,
+    );
+    write_f32_array(
+        out,
+        "/// Imaginary parts of the butterfly twiddles of the 256-point complex FFT, each twice.",
+        "FFT_TWIDDLE_IM2",
+        &im,
+    );
 }
 
 /// Emits the `MEASURED_*` statics of the reference-table file named by `CMA_TABLE`; a bad file fails

@@ -52,6 +52,8 @@ pub mod fast_exp;
 pub mod fast_math;
 pub mod fdiv;
 pub mod features;
+#[cfg(target_arch = "x86_64")]
+mod fft_x86;
 pub mod frame_quality;
 pub mod framer;
 pub mod front_end;
