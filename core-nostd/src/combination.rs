@@ -234,6 +234,7 @@ mod tests {
             measure: SimilarityMeasure::Euclidean,
             noisy: NoisyReferences::new(NoiseMixing::Off, 0.0, 0.0, 10.0).unwrap(),
             mean_free: false,
+            noise_feature: None,
         };
         let mut spectra = [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS];
         let az = 65f32.to_radians();

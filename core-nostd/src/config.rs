@@ -3,6 +3,7 @@
 use crate::cartesian_filter::Smoothing;
 use crate::combination::{Combination, FdivSpread};
 use crate::direct_sound::DirectSound;
+use crate::features::FeatureKind;
 use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
 use crate::noise_floor::NoiseGate;
@@ -85,6 +86,8 @@ pub struct LocatorConfig {
     pub snr_step_db: f32,
     /// Mean-free features (appendix A `meanFree`).
     pub mean_free: bool,
+    /// Which ratio the peak features are (the thesis: magnitudes).
+    pub features: FeatureKind,
     /// Reliability weighting of the similarity curve.
     pub reliability: Reliability,
     /// How curves are combined over time.
@@ -133,6 +136,7 @@ impl LocatorConfig {
             snr_to_db: 40.0,
             snr_step_db: 10.0,
             mean_free: false,
+            features: FeatureKind::Magnitude,
             reliability: Reliability {
                 enabled: true,
                 speed: 1.0,

@@ -19,13 +19,13 @@ use crate::direct_sound::{DirectSound, OnsetState};
 use crate::error::Error;
 use crate::estimate::{Estimate, Flags};
 use crate::fdiv::{fdiv_process, FdivState};
-use crate::features::feature_from_powers;
+use crate::features::{active_features, feature_from_powers, FeatureKind};
 use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::InputGuard;
 use crate::interpolation::argmax_parabolic;
 use crate::noise_floor::NoiseFloor;
-use crate::noisy_reference::NoisyReferences;
+use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance, CurveFilter};
@@ -133,6 +133,7 @@ impl<'t> Locator<'t> {
                 measure: crate::similarity::SimilarityMeasure::Euclidean,
                 noisy: NoisyReferences::off(),
                 mean_free: false,
+                noise_feature: None,
             },
             row_cache: RowCache::new(),
             bin_rows: [0; NUM_BINS],
@@ -245,6 +246,11 @@ impl<'t> Locator<'t> {
         if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
             return Err(Error::InvalidConfig("thresholds must be ≥ 0"));
         }
+        if c.features == FeatureKind::Active && c.noise_mixing == NoiseMixing::Power {
+            return Err(Error::InvalidConfig(
+                "active features mix noise linearly: use magnitude (or no) noise mixing",
+            ));
+        }
         if c.noise_gate.enabled && !c.noise_gate.is_valid() {
             return Err(Error::InvalidConfig(
                 "noise gate: need a finite rise ≥ 0 and open < full",
@@ -276,6 +282,7 @@ impl<'t> Locator<'t> {
             measure: c.measure,
             noisy,
             mean_free: c.mean_free,
+            noise_feature: c.features.noise_feature(),
         };
         let mut bin_rows = [0u16; NUM_BINS];
         for (k, row) in bin_rows.iter_mut().enumerate() {
@@ -525,8 +532,13 @@ impl<'t> Locator<'t> {
                 let [_, f1, f2, f3] = &self.spectra;
                 dft_bins3([f1, f2, f3], k)
             };
-            let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
-            let Some(y) = feature_from_powers(p0, pc) else {
+            let y = match self.config.features {
+                FeatureKind::Magnitude => {
+                    feature_from_powers(p0, [power(xc[0]), power(xc[1]), power(xc[2])])
+                }
+                FeatureKind::Active => active_features(self.spectra[0][k], xc),
+            };
+            let Some(y) = y else {
                 continue;
             };
             let w = if ds.enabled() {
@@ -697,7 +709,7 @@ mod tests {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
         assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
-        let mut bad = [LocatorConfig::default(); 5];
+        let mut bad = [LocatorConfig::default(); 6];
         bad[0].band_hi_hz = 100.0;
         bad[1].num_peaks = 0;
         bad[2].noise_gate.full_db = bad[2].noise_gate.open_db;
@@ -709,6 +721,8 @@ mod tests {
             onset_likelihood_floor: f32::NAN,
             ..DEFAULT_GRID_TRACKER
         });
+        bad[5].features = crate::features::FeatureKind::Active;
+        bad[5].noise_mixing = NoiseMixing::Power;
         for (i, c) in bad.into_iter().enumerate() {
             assert!(
                 matches!(Locator::new(c, table, 48_000), Err(Error::InvalidConfig(_))),

@@ -131,9 +131,19 @@ pub struct CurveBuilder {
     pub noisy: NoisyReferences,
     /// Apply [`mean_free`] to observed and reference features.
     pub mean_free: bool,
+    /// Y_η of the magnitude mixing for every row instead of the table's (features that are not
+    /// magnitude ratios).
+    pub noise_feature: Option<Feature>,
 }
 
 impl CurveBuilder {
+    /// Y_η of row `fi` for the magnitude mixing.
+    #[inline]
+    fn noise_mag(&self, table: &ReferenceTable<'_>, fi: usize) -> Feature {
+        self.noise_feature
+            .unwrap_or_else(|| table.noise_magnitude(fi))
+    }
+
     /// Adds `weight · max_i Sim(y, Y_ref(q, i))` to `curve[q]` for every azimuth q of frequency row `fi`.
     ///
     /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed
@@ -154,7 +164,7 @@ impl CurveBuilder {
         curve: &mut [f32],
     ) {
         let row = table.row(fi);
-        let noise_mag = table.noise_magnitude(fi);
+        let noise_mag = self.noise_mag(table, fi);
         let noise_pow = table.noise_power(fi);
         let fast = self.measure == SimilarityMeasure::Euclidean
             && !self.mean_free
@@ -238,7 +248,7 @@ impl CurveBuilder {
             return;
         };
         self.fill_cache(cache, table, fi);
-        let noise_mag = table.noise_magnitude(fi);
+        let noise_mag = self.noise_mag(table, fi);
         self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q]);
     }
 
@@ -263,7 +273,7 @@ impl CurveBuilder {
         let mut rest = peaks;
         while let Some(p) = rest.first() {
             self.fill_cache(cache, table, p.fi);
-            let noise_mag = table.noise_magnitude(p.fi);
+            let noise_mag = self.noise_mag(table, p.fi);
             let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
             if run == 2 {
                 let (p2, ws) = (rest[1], [p.weight, rest[1].weight]);
@@ -293,7 +303,7 @@ impl CurveBuilder {
         if cache.fi == fi {
             return;
         }
-        let noise_mag = table.noise_magnitude(fi);
+        let noise_mag = self.noise_mag(table, fi);
         #[cfg(not(target_arch = "x86_64"))]
         for (e, r) in cache.rows.iter_mut().zip(table.row(fi)) {
             let r = [
@@ -550,6 +560,7 @@ mod tests {
                 measure: SimilarityMeasure::Euclidean,
                 noisy: NoisyReferences::new(mixing, -30.0, 40.0, 10.0).unwrap(),
                 mean_free: false,
+                noise_feature: None,
             };
             let mut ys = [[0.0f32; 3]; 204];
             ys[..4].copy_from_slice(&[
@@ -600,6 +611,7 @@ mod tests {
             measure: SimilarityMeasure::Euclidean,
             noisy: NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap(),
             mean_free: false,
+            noise_feature: None,
         };
         let mut rng = crate::test_rng::Lcg(5);
         let mut rnd = || rng.unit();
@@ -664,6 +676,7 @@ mod tests {
                 measure: SimilarityMeasure::Euclidean,
                 noisy: NoisyReferences::new(NoiseMixing::Magnitude, from, to, step).unwrap(),
                 mean_free: false,
+                noise_feature: None,
             };
             assert!(b.noisy.nearest_ok());
             let az: [f32; 128] = core::array::from_fn(|i| i as f32 * 360.0 / qn as f32);

@@ -55,6 +55,15 @@ pub enum OnOff {
     Off,
 }
 
+/// Which ratio the peak features are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum FeaturesArg {
+    /// |X_c| / |X_0| (the thesis).
+    Magnitude,
+    /// Re(X_c / X_0): the active ratio (noise mixes linearly toward ½; reflections average out).
+    Active,
+}
+
 /// Localizer configuration flags. Unset flags keep the preset's value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ConfigArgs {
@@ -88,6 +97,9 @@ pub struct ConfigArgs {
     /// Mean-free features.
     #[arg(long)]
     pub mean_free: bool,
+    /// Peak features: magnitude ratios (the thesis) or active ratios.
+    #[arg(long, value_enum)]
+    pub features: Option<FeaturesArg>,
     /// Switch reliability weighting off (b = 1 for every frame).
     #[arg(long)]
     pub no_reliability: bool,
@@ -213,6 +225,12 @@ impl ConfigArgs {
             };
         }
         c.mean_free |= self.mean_free;
+        if let Some(f) = self.features {
+            c.features = match f {
+                FeaturesArg::Magnitude => cma_core::features::FeatureKind::Magnitude,
+                FeaturesArg::Active => cma_core::features::FeatureKind::Active,
+            };
+        }
         if self.no_reliability {
             c.reliability.enabled = false;
         }

@@ -149,6 +149,10 @@ fn bad_flags() {
     assert!(m.contains("grid tracker"), "{m}");
     let m = err_of(&["locate", &w, "--noise-gate", "maybe"]);
     assert!(m.contains("--noise-gate"), "{m}");
+    let m = err_of(&["locate", &w, "--features", "phase"]);
+    assert!(m.contains("--features"), "{m}");
+    let m = err_of(&["locate", &w, "--features", "active", "--noise", "power"]);
+    assert!(m.contains("active features"), "{m}");
     let m = err_of(&[
         "scene",
         "--out",

@@ -43,7 +43,7 @@ fn static_talkers_are_found_at_several_azimuths() {
 }
 
 #[test]
-fn thesis_preset_and_baselines_also_localize() {
+fn thesis_preset_switches_and_baselines_also_localize() {
     let dir = tempfile::tempdir().unwrap();
     let wav = make_scene(
         dir.path(),
@@ -55,6 +55,8 @@ fn thesis_preset_and_baselines_also_localize() {
         &["--method", "fdiv"],
         &["--method", "tdiv"],
         &["--grid", "15"],
+        &["--features", "active"],
+        &["--preset", "thesis", "--features", "active"],
     ] {
         let rows = locate(&wav, flags);
         let err = errors_after(&rows, 1.5, 60.0);
