@@ -133,6 +133,7 @@ impl Bench {
                 )
                 .expect("default SNR sets are valid"),
                 mean_free: c.mean_free,
+                noise_feature: c.features.noise_feature(),
             },
             table: ReferenceTable::ideal_5deg(),
         });
