@@ -3,13 +3,18 @@
 use crate::cartesian_filter::Smoothing;
 use crate::combination::{Combination, FdivSpread};
 use crate::direct_sound::DirectSound;
+use crate::error::Error;
 use crate::features::FeatureKind;
 use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
+use crate::input_guard::InputGuard;
 use crate::noise_floor::NoiseGate;
-use crate::noisy_reference::NoiseMixing;
+use crate::noisy_reference::{NoiseMixing, NoisyReferences};
+use crate::peak_picker::PeakPicker;
 use crate::reliability::Reliability;
+use crate::similarity::CurveBuilder;
 use crate::similarity::SimilarityMeasure;
+use crate::{FRAME_LEN, NUM_BINS};
 
 /// Which localization principle runs (appendix A `se.principle`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,6 +161,45 @@ impl LocatorConfig {
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,
+        }
+    }
+
+    /// The peak picker of this configuration at analysis rate `fs` Hz (band edges rounded to bins,
+    /// kept inside 1…Nyquist − 1).
+    #[must_use]
+    pub fn peak_picker(&self, fs: f32) -> PeakPicker {
+        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
+        PeakPicker {
+            lo_bin: bin_of(self.band_lo_hz).max(1),
+            hi_bin: bin_of(self.band_hi_hz).min(NUM_BINS - 2),
+            num_peaks: self.num_peaks,
+            min_power: self.peak_threshold * self.peak_threshold,
+            fill: self.fill_peaks,
+        }
+    }
+
+    /// The similarity-curve builder of this configuration, or the error of its SNR sets.
+    pub fn curve_builder(&self) -> Result<CurveBuilder, Error> {
+        Ok(CurveBuilder {
+            measure: self.measure,
+            noisy: NoisyReferences::new(
+                self.noise_mixing,
+                self.snr_from_db,
+                self.snr_to_db,
+                self.snr_step_db,
+            )?,
+            mean_free: self.mean_free,
+            noise_feature: self.features.noise_feature(),
+        })
+    }
+
+    /// The input guard of this configuration for a decimation `factor`: bad samples flag the frames
+    /// that contain them (a frame plus the decimator's transient, in input samples).
+    #[must_use]
+    pub fn input_guard(&self, factor: u32) -> InputGuard {
+        InputGuard {
+            clip_level: self.clip_level,
+            hold_samples: (FRAME_LEN as u32 + 64) * factor,
         }
     }
 }

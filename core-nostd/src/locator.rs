@@ -268,33 +268,14 @@ impl<'t> Locator<'t> {
                 "quality: scales must be > 0 and finite",
             ));
         }
-        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
-        let picker = PeakPicker {
-            lo_bin: bin_of(c.band_lo_hz).max(1),
-            hi_bin: bin_of(c.band_hi_hz).min(NUM_BINS - 2),
-            num_peaks: c.num_peaks,
-            min_power: c.peak_threshold * c.peak_threshold,
-            fill: c.fill_peaks,
-        };
-        let noisy =
-            NoisyReferences::new(c.noise_mixing, c.snr_from_db, c.snr_to_db, c.snr_step_db)?;
-        let curves = CurveBuilder {
-            measure: c.measure,
-            noisy,
-            mean_free: c.mean_free,
-            noise_feature: c.features.noise_feature(),
-        };
+        let picker = c.peak_picker(fs);
+        let curves = c.curve_builder()?;
         let mut bin_rows = [0u16; NUM_BINS];
         for (k, row) in bin_rows.iter_mut().enumerate() {
             *row = table.freq_index(crate::spectrum::bin_frequency(k, fs)) as u16;
         }
-        let factor = decimator.factor();
-        let hold = (FRAME_LEN as u32 + 64) * factor;
         let offset2 = libm::round(2.0 * decimator.time_offset()) as i64;
-        let guard = InputGuard {
-            clip_level: c.clip_level,
-            hold_samples: hold,
-        };
+        let guard = c.input_guard(decimator.factor());
         self.config = config;
         self.table = table;
         self.decimator = decimator;

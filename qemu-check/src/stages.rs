@@ -7,9 +7,7 @@ use crate::scene::{Scene, HOP_SAMPLES};
 use cma_core::decimator::Decimator;
 use cma_core::features::feature_from_powers;
 use cma_core::front_end::FrontEnd;
-use cma_core::input_guard::InputGuard;
 use cma_core::interpolation::argmax_parabolic;
-use cma_core::noisy_reference::NoisyReferences;
 use cma_core::peak_picker::{PeakPicker, Peaks};
 use cma_core::reliability::{curve_variance, CurveFilter};
 use cma_core::similarity::{CurveBuilder, PeakFeature, RowCache};
@@ -98,7 +96,6 @@ impl Bench {
         let c = LocatorConfig::default();
         let dec = Decimator::for_rate(48_000).expect("48 kHz is supported");
         let fs = dec.output_rate() as f32;
-        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
         let b = out.write(Bench {
             input: [[0.0; CHANNELS]; HOP_SAMPLES],
             frame: [[0.0; FRAME_LEN]; CHANNELS],
@@ -108,33 +105,10 @@ impl Bench {
             peaks: Peaks::default(),
             curve: [0.0; MAX_AZIMUTHS],
             filter: CurveFilter::new(),
-            front: FrontEnd::new(
-                dec,
-                InputGuard {
-                    clip_level: c.clip_level,
-                    hold_samples: 4 * (FRAME_LEN as u32 + 64),
-                },
-            ),
-            picker: PeakPicker {
-                lo_bin: bin_of(c.band_lo_hz).max(1),
-                hi_bin: bin_of(c.band_hi_hz).min(NUM_BINS - 2),
-                num_peaks: c.num_peaks,
-                min_power: c.peak_threshold * c.peak_threshold,
-                fill: c.fill_peaks,
-            },
+            front: FrontEnd::new(dec, c.input_guard(dec.factor())),
+            picker: c.peak_picker(fs),
             row_cache: RowCache::new(),
-            curves: CurveBuilder {
-                measure: c.measure,
-                noisy: NoisyReferences::new(
-                    c.noise_mixing,
-                    c.snr_from_db,
-                    c.snr_to_db,
-                    c.snr_step_db,
-                )
-                .expect("default SNR sets are valid"),
-                mean_free: c.mean_free,
-                noise_feature: c.features.noise_feature(),
-            },
+            curves: c.curve_builder().expect("default SNR sets are valid"),
             table: ReferenceTable::ideal_5deg(),
         });
         let mut scene = Scene::new();
