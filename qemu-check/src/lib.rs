@@ -20,7 +20,8 @@ pub const MODE_ADDR: u32 = 0x2030_0000;
 /// What the target program does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
-    /// Run the whole scene through the localizer and print every estimate ([`EstimateBits`]).
+    /// Run the whole scene through the localizer configured as [`check_config`]`(arg)` and print
+    /// every estimate ([`EstimateBits`]).
     Check,
     /// Generate and process `arg` hops of the scene without printing.
     Pipeline,
@@ -67,18 +68,54 @@ impl fmt::Display for EstimateBits<'_> {
 /// Sample frames per block fed to the localizer (any size gives the same estimates).
 pub const BLOCK: usize = 256;
 
+/// Configurations the bit-for-bit check runs (the argument of [`Mode::Check`]): the product default,
+/// the default with the active-ratio features, and the thesis configuration (one-pole curve filter
+/// instead of the grid tracker).
+#[must_use]
+pub fn check_config(variant: usize) -> Option<cma_core::LocatorConfig> {
+    let mut c = cma_core::LocatorConfig::default();
+    match variant {
+        0 => {}
+        1 => c.features = cma_core::features::FeatureKind::Active,
+        2 => c = cma_core::LocatorConfig::thesis(),
+        _ => return None,
+    }
+    Some(c)
+}
+
+/// Number of [`check_config`] variants.
+pub const CHECK_CONFIGS: usize = 3;
+
 /// Generates `hops` hops of the scene block by block and, when `process` is set, runs them through a
 /// default [`cma_core::Locator`] at 48 kHz, calling `on_estimate` for each estimate.
 ///
 /// # Panics
 /// Never for the default configuration (it is valid at 48 kHz).
-pub fn run_scene(hops: usize, process: bool, mut on_estimate: impl FnMut(&Estimate)) {
-    let mut locator = cma_core::Locator::new(
+pub fn run_scene(hops: usize, process: bool, on_estimate: impl FnMut(&Estimate)) {
+    run_scene_with(
         cma_core::LocatorConfig::default(),
+        hops,
+        process,
+        on_estimate,
+    );
+}
+
+/// [`run_scene`] with the localizer configured by `config`.
+///
+/// # Panics
+/// If `config` is not valid at 48 kHz (the [`check_config`] variants are).
+pub fn run_scene_with(
+    config: cma_core::LocatorConfig,
+    hops: usize,
+    process: bool,
+    mut on_estimate: impl FnMut(&Estimate),
+) {
+    let mut locator = cma_core::Locator::new(
+        config,
         cma_core::ReferenceTable::ideal_5deg(),
         scene::RATE_HZ,
     )
-    .expect("default configuration is valid at 48 kHz");
+    .expect("configuration valid at 48 kHz");
     let mut scene = scene::Scene::new();
     let mut block = [[0.0f32; cma_core::CHANNELS]; BLOCK];
     let mut left = hops * scene::HOP_SAMPLES;

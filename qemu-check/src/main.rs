@@ -1,8 +1,8 @@
 //! The QEMU check program for the Cortex-M4F (`qemu-system-arm -machine mps2-an386`).
 //!
 //! It reads a mode word at [`qemu_check::MODE_ADDR`] (0 unless QEMU's generic loader sets it) and
-//! * mode 0: runs the test scene through the localizer and prints every estimate's bits over
-//!   semihosting, then `END <count>`;
+//! * mode 0: runs the test scene through the localizer (configuration `arg`, see
+//!   [`qemu_check::check_config`]) and prints every estimate's bits over semihosting, then `END <count>`;
 //! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
 //!   instruction counting (`scripts/cost.sh`).
 //!
@@ -14,7 +14,9 @@ mod target {
     use core::mem::MaybeUninit;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hprintln};
-    use qemu_check::{run_scene, stages::Bench, EstimateBits, Mode, MODE_ADDR};
+    use qemu_check::{
+        check_config, run_scene, run_scene_with, stages::Bench, EstimateBits, Mode, MODE_ADDR,
+    };
 
     #[entry]
     fn main() -> ! {
@@ -29,8 +31,13 @@ mod target {
         };
         match Mode::from_word(word) {
             Some(Mode::Check) => {
+                let Some(config) = check_config(arg) else {
+                    hprintln!("unknown configuration {}", arg);
+                    debug::exit(debug::EXIT_FAILURE);
+                    loop {}
+                };
                 let mut n = 0u32;
-                run_scene(qemu_check::scene::SCENE_HOPS, true, |e| {
+                run_scene_with(config, qemu_check::scene::SCENE_HOPS, true, |e| {
                     hprintln!("{}", EstimateBits(e));
                     n += 1;
                 });

@@ -2,10 +2,13 @@
 //!
 //! Builds `qemu-check` for `thumbv7em-none-eabihf` (release), runs it on `qemu-system-arm -machine
 //! mps2-an386` under `timeout`, and compares its output line by line with the same scene run through
-//! the host build of the core. Without `qemu-system-arm` the test is skipped with a message, except when
+//! the host build of the core, for each configuration of `qemu_check::check_config` (the default, the
+//! default with active-ratio features, the thesis configuration). Without `qemu-system-arm` the test is skipped with a message, except when
 //! `CI` is set: then it fails.
 
-use qemu_check::{run_scene, scene::SCENE_HOPS, EstimateBits};
+use qemu_check::{
+    check_config, run_scene_with, scene::SCENE_HOPS, EstimateBits, CHECK_CONFIGS, MODE_ADDR,
+};
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -34,9 +37,10 @@ fn have_qemu() -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
-fn host_lines() -> Vec<String> {
+fn host_lines(variant: usize) -> Vec<String> {
+    let config = check_config(variant).expect("a check variant");
     let mut lines = Vec::new();
-    run_scene(SCENE_HOPS, true, |e| {
+    run_scene_with(config, SCENE_HOPS, true, |e| {
         lines.push(EstimateBits(e).to_string())
     });
     lines.push(format!("END {}", lines.len()));
@@ -63,6 +67,13 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
         .expect("run cargo");
     assert!(status.success(), "building qemu-check for {TARGET} failed");
 
+    for variant in 0..CHECK_CONFIGS {
+        compare_variant(variant);
+    }
+}
+
+/// Runs configuration `variant` on QEMU and compares its estimates with the host's.
+fn compare_variant(variant: usize) {
     let out = Command::new("timeout")
         .arg(QEMU_TIMEOUT_S)
         .args([
@@ -75,18 +86,23 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
         ])
         .args(["-semihosting-config", "enable=on,target=native", "-kernel"])
         .arg(target_elf())
+        .arg("-device")
+        .arg(format!(
+            "loader,addr={:#x},data={variant},data-len=4",
+            MODE_ADDR + 4
+        ))
         .output()
         .expect("run qemu-system-arm");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
-        "QEMU run failed ({:?}):\n{stdout}\n{}",
+        "configuration {variant}: QEMU run failed ({:?}):\n{stdout}\n{}",
         out.status,
         String::from_utf8_lossy(&out.stderr)
     );
 
     let target: Vec<&str> = stdout.lines().map(str::trim_end).collect();
-    let host = host_lines();
+    let host = host_lines(variant);
     assert!(
         host.len() > 100,
         "the scene yields {} estimates",
@@ -101,7 +117,7 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
         .collect();
     assert!(
         mismatches.is_empty() && host.len() == target.len(),
-        "{} of {} lines differ (host {} lines, target {}):\n{}",
+        "configuration {variant}: {} of {} lines differ (host {} lines, target {}):\n{}",
         mismatches.len(),
         host.len(),
         host.len(),
