@@ -33,8 +33,7 @@ mod target {
             Some(Mode::Check) => {
                 let Some(config) = check_config(arg) else {
                     hprintln!("unknown configuration {}", arg);
-                    debug::exit(debug::EXIT_FAILURE);
-                    loop {}
+                    exit(debug::EXIT_FAILURE)
                 };
                 let mut n = 0u32;
                 run_scene_with(config, qemu_check::scene::SCENE_HOPS, true, |e| {
@@ -57,18 +56,24 @@ mod target {
             }
             None => {
                 hprintln!("unknown mode {}", word);
-                debug::exit(debug::EXIT_FAILURE);
+                exit(debug::EXIT_FAILURE)
             }
         }
-        debug::exit(debug::EXIT_SUCCESS);
-        loop {}
+        exit(debug::EXIT_SUCCESS)
+    }
+
+    /// Ends the QEMU run with `status` (semihosting); waits for the end if the host has not ended it.
+    fn exit(status: debug::ExitStatus) -> ! {
+        debug::exit(status);
+        loop {
+            cortex_m::asm::wfi();
+        }
     }
 
     #[panic_handler]
     fn panic(info: &core::panic::PanicInfo) -> ! {
         hprintln!("PANIC {}", info);
-        debug::exit(debug::EXIT_FAILURE);
-        loop {}
+        exit(debug::EXIT_FAILURE)
     }
 
     // Note(unsafe): cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
@@ -76,8 +81,7 @@ mod target {
     #[exception]
     unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
         hprintln!("HARDFAULT at pc {:#010x}", frame.pc());
-        debug::exit(debug::EXIT_FAILURE);
-        loop {}
+        exit(debug::EXIT_FAILURE)
     }
 }
 
