@@ -8,7 +8,6 @@
 //! b = 1 when s ≤ s_max.
 
 use crate::bformat::{intensity, xy_complex};
-use crate::features::feature_from_powers;
 use crate::interpolation::argmax_parabolic;
 use crate::reference_table::ReferenceTable;
 use crate::similarity::CurveBuilder;
@@ -141,10 +140,8 @@ pub fn per_peak_estimate(
         if k >= NUM_BINS {
             continue;
         }
-        let p0 = power(omni[k]);
         let xc = cardioids_at(k);
-        let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
-        let Some(y) = feature_from_powers(p0, pc) else {
+        let Some(y) = builder.features.of_bin(omni[k], power(omni[k]), xc) else {
             continue;
         };
         row[..q].fill(0.0);
@@ -234,7 +231,7 @@ mod tests {
             measure: SimilarityMeasure::Euclidean,
             noisy: NoisyReferences::new(NoiseMixing::Off, 0.0, 0.0, 10.0).unwrap(),
             mean_free: false,
-            noise_feature: None,
+            features: crate::features::FeatureKind::Magnitude,
         };
         let mut spectra = [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS];
         let az = 65f32.to_radians();
@@ -251,13 +248,24 @@ mod tests {
         for (k, r) in rows.iter_mut().enumerate() {
             *r = table.freq_index(k as f32 * 10.0) as u16;
         }
-        for rule in [
+        // Both feature kinds: rule 2 computes the features the builder compares.
+        let kinds = [
+            crate::features::FeatureKind::Magnitude,
+            crate::features::FeatureKind::Active,
+        ];
+        for (rule, features) in [
             Combination::PeakCircularMean,
             Combination::PeakCircularMedian,
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|r| kinds.map(|f| (r, f)))
+        {
             let a = per_peak_estimate(
                 rule,
-                &builder,
+                &CurveBuilder {
+                    features,
+                    ..builder
+                },
                 &table,
                 &spectra[0],
                 |k| [spectra[1][k], spectra[2][k], spectra[3][k]],
@@ -265,7 +273,7 @@ mod tests {
                 &rows,
             )
             .unwrap();
-            assert!((a - 65.0).abs() < 1.5, "{rule:?}: {a}");
+            assert!((a - 65.0).abs() < 1.5, "{rule:?} {features:?}: {a}");
         }
         assert_eq!(
             per_peak_estimate(

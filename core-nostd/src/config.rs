@@ -12,8 +12,7 @@ use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::PeakPicker;
 use crate::reliability::Reliability;
-use crate::similarity::CurveBuilder;
-use crate::similarity::SimilarityMeasure;
+use crate::similarity::{CurveBuilder, SimilarityMeasure};
 use crate::{FRAME_LEN, NUM_BINS};
 
 /// Which localization principle runs (appendix A `se.principle`).
@@ -189,7 +188,7 @@ impl LocatorConfig {
                 self.snr_step_db,
             )?,
             mean_free: self.mean_free,
-            noise_feature: self.features.noise_feature(),
+            features: self.features,
         })
     }
 

@@ -19,6 +19,7 @@
 //! Measured with `host-sim eval` (README): the active ratios lower the anechoic MAE most.
 
 use crate::reference_table::Feature;
+use crate::spectrum::power;
 use crate::CARDIOIDS;
 use microfft::Complex32;
 
@@ -33,6 +34,23 @@ pub enum FeatureKind {
 }
 
 impl FeatureKind {
+    /// The features of one bin from its omni value `omni` (with `omni_power` = |omni|², as the peak
+    /// picker already has it) and its three cardioid values, or `None` when the omni bin is
+    /// (numerically) empty or a feature is not finite.
+    #[inline]
+    #[must_use]
+    pub fn of_bin(
+        self,
+        omni: Complex32,
+        omni_power: f32,
+        cardioids: [Complex32; CARDIOIDS],
+    ) -> Option<Feature> {
+        match self {
+            FeatureKind::Magnitude => feature_from_powers(omni_power, cardioids.map(power)),
+            FeatureKind::Active => active_features(omni, omni_power, cardioids),
+        }
+    }
+
     /// The diffuse-noise feature Y_η the noisy references mix toward, when it is the same for every
     /// frequency row regardless of the table (the active ratio: ½ per cardioid); `None`: the table's.
     #[must_use]
@@ -44,17 +62,28 @@ impl FeatureKind {
     }
 }
 
-/// Active-ratio features Re(X_c·X_0*) / |X_0|² of one bin, or `None` when the omni bin is
-/// (numerically) empty or a value is not finite.
+/// Active-ratio features Re(X_c·X_0*) / |X_0|² of one bin (`omni_power` = |X_0|²), or `None` when
+/// the omni bin is (numerically) empty or a value is not finite.
 #[inline]
 #[must_use]
-pub fn active_features(omni: Complex32, cardioids: [Complex32; CARDIOIDS]) -> Option<Feature> {
-    let p0 = omni.re * omni.re + omni.im * omni.im;
-    if !(p0 > MIN_OMNI_POWER) || !p0.is_finite() {
+pub fn active_features(
+    omni: Complex32,
+    omni_power: f32,
+    cardioids: [Complex32; CARDIOIDS],
+) -> Option<Feature> {
+    ratios(omni_power, |inv| {
+        cardioids.map(|c| (c.re * omni.re + c.im * omni.im) * inv)
+    })
+}
+
+/// `features(1/omni_power)` when `omni_power` is usable (finite, above [`MIN_OMNI_POWER`]) and every
+/// feature is finite, else `None`.
+#[inline]
+fn ratios(omni_power: f32, features: impl FnOnce(f32) -> Feature) -> Option<Feature> {
+    if !(omni_power > MIN_OMNI_POWER) || !omni_power.is_finite() {
         return None;
     }
-    let inv = 1.0 / p0;
-    let y = cardioids.map(|c| (c.re * omni.re + c.im * omni.im) * inv);
+    let y = features(1.0 / omni_power);
     if y.iter().all(|v| v.is_finite()) {
         Some(y)
     } else {
@@ -70,19 +99,9 @@ pub const MIN_OMNI_POWER: f32 = 1e-20;
 #[inline]
 #[must_use]
 pub fn feature_from_powers(omni_power: f32, cardioid_power: [f32; CARDIOIDS]) -> Option<Feature> {
-    if !(omni_power > MIN_OMNI_POWER) || !omni_power.is_finite() {
-        return None;
-    }
-    let inv = 1.0 / omni_power;
-    let mut y = [0.0; CARDIOIDS];
-    for (o, p) in y.iter_mut().zip(cardioid_power) {
-        *o = crate::fast_math::sqrtf(p * inv);
-    }
-    if y.iter().all(|v| v.is_finite()) {
-        Some(y)
-    } else {
-        None
-    }
+    ratios(omni_power, |inv| {
+        cardioid_power.map(|p| crate::fast_math::sqrtf(p * inv))
+    })
 }
 
 #[cfg(test)]
@@ -107,19 +126,25 @@ mod tests {
     fn active_ratio_of_a_plane_wave_is_the_model() {
         for az in [0.0f32, 37.0, 170.0, 250.0] {
             let (o, c) = spectra(&[(az, Complex32::new(0.3, -0.7))]);
-            let y = active_features(o, c).unwrap();
+            let y = active_features(o, o.norm_sqr(), c).unwrap();
             for (m, v) in y.iter().enumerate() {
                 let want = 0.5 + 0.5 * libm::cosf((az - 120.0 * m as f32).to_radians());
                 assert!((v - want).abs() < 1e-5, "az {az} m {m}: {v} vs {want}");
             }
         }
         assert_eq!(
-            active_features(Complex32::new(0.0, 0.0), [Complex32::new(1.0, 0.0); 3]),
+            active_features(Complex32::new(0.0, 0.0), 0.0, [Complex32::new(1.0, 0.0); 3]),
             None
         );
         let nan = Complex32::new(f32::NAN, 0.0);
-        assert_eq!(active_features(nan, [Complex32::new(1.0, 0.0); 3]), None);
-        assert_eq!(active_features(Complex32::new(1.0, 0.0), [nan; 3]), None);
+        assert_eq!(
+            active_features(nan, nan.norm_sqr(), [Complex32::new(1.0, 0.0); 3]),
+            None
+        );
+        assert_eq!(
+            active_features(Complex32::new(1.0, 0.0), 1.0, [nan; 3]),
+            None
+        );
     }
 
     /// Direct sound at 40° and a reflection at 200° (0.6 of its amplitude): averaged over the
@@ -133,7 +158,7 @@ mod tests {
             let ph = 2.0 * core::f32::consts::PI * k as f32 / n as f32;
             let r = Complex32::new(0.6 * libm::cosf(ph), 0.6 * libm::sinf(ph));
             let (o, c) = spectra(&[(40.0, Complex32::new(1.0, 0.0)), (200.0, r)]);
-            let a = active_features(o, c).unwrap();
+            let a = active_features(o, o.norm_sqr(), c).unwrap();
             let p = c.map(|x| x.norm_sqr());
             let m = feature_from_powers(o.norm_sqr(), p).unwrap();
             for i in 0..3 {

@@ -19,7 +19,7 @@ use crate::direct_sound::{DirectSound, OnsetState};
 use crate::error::Error;
 use crate::estimate::{Estimate, Flags};
 use crate::fdiv::{fdiv_process, FdivState};
-use crate::features::{active_features, feature_from_powers, FeatureKind};
+use crate::features::FeatureKind;
 use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::InputGuard;
@@ -133,7 +133,7 @@ impl<'t> Locator<'t> {
                 measure: crate::similarity::SimilarityMeasure::Euclidean,
                 noisy: NoisyReferences::off(),
                 mean_free: false,
-                noise_feature: None,
+                features: crate::features::FeatureKind::Magnitude,
             },
             row_cache: RowCache::new(),
             bin_rows: [0; NUM_BINS],
@@ -513,13 +513,7 @@ impl<'t> Locator<'t> {
                 let [_, f1, f2, f3] = &self.spectra;
                 dft_bins3([f1, f2, f3], k)
             };
-            let y = match self.config.features {
-                FeatureKind::Magnitude => {
-                    feature_from_powers(p0, [power(xc[0]), power(xc[1]), power(xc[2])])
-                }
-                FeatureKind::Active => active_features(self.spectra[0][k], xc),
-            };
-            let Some(y) = y else {
+            let Some(y) = self.config.features.of_bin(self.spectra[0][k], p0, xc) else {
                 continue;
             };
             let w = if ds.enabled() {

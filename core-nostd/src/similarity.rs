@@ -2,6 +2,7 @@
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
 use crate::fast_math::{sqrt_nonneg, sqrt_nonneg2, sqrtf};
+use crate::features::FeatureKind;
 use crate::noisy_reference::{nearest_in, NoiseMixing, NoisyReferences, LUT_LEN};
 
 /// Bucket scale of the α tables of [`NoisyReferences`].
@@ -131,16 +132,17 @@ pub struct CurveBuilder {
     pub noisy: NoisyReferences,
     /// Apply [`mean_free`] to observed and reference features.
     pub mean_free: bool,
-    /// Y_η of the magnitude mixing for every row instead of the table's (features that are not
-    /// magnitude ratios).
-    pub noise_feature: Option<Feature>,
+    /// Which features are compared: the active ratios mix toward their own Y_η (½) instead of the
+    /// table's.
+    pub features: FeatureKind,
 }
 
 impl CurveBuilder {
     /// Y_η of row `fi` for the magnitude mixing.
     #[inline]
     fn noise_mag(&self, table: &ReferenceTable<'_>, fi: usize) -> Feature {
-        self.noise_feature
+        self.features
+            .noise_feature()
             .unwrap_or_else(|| table.noise_magnitude(fi))
     }
 
@@ -560,7 +562,7 @@ mod tests {
                 measure: SimilarityMeasure::Euclidean,
                 noisy: NoisyReferences::new(mixing, -30.0, 40.0, 10.0).unwrap(),
                 mean_free: false,
-                noise_feature: None,
+                features: FeatureKind::Magnitude,
             };
             let mut ys = [[0.0f32; 3]; 204];
             ys[..4].copy_from_slice(&[
@@ -611,7 +613,7 @@ mod tests {
             measure: SimilarityMeasure::Euclidean,
             noisy: NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap(),
             mean_free: false,
-            noise_feature: None,
+            features: FeatureKind::Magnitude,
         };
         let mut rng = crate::test_rng::Lcg(5);
         let mut rnd = || rng.unit();
@@ -676,7 +678,7 @@ mod tests {
                 measure: SimilarityMeasure::Euclidean,
                 noisy: NoisyReferences::new(NoiseMixing::Magnitude, from, to, step).unwrap(),
                 mean_free: false,
-                noise_feature: None,
+                features: FeatureKind::Magnitude,
             };
             assert!(b.noisy.nearest_ok());
             let az: [f32; 128] = core::array::from_fn(|i| i as f32 * 360.0 / qn as f32);

@@ -5,7 +5,6 @@
 
 use crate::scene::{Scene, HOP_SAMPLES};
 use cma_core::decimator::Decimator;
-use cma_core::features::feature_from_powers;
 use cma_core::front_end::FrontEnd;
 use cma_core::interpolation::argmax_parabolic;
 use cma_core::peak_picker::{PeakPicker, Peaks};
@@ -180,8 +179,11 @@ impl Bench {
             let k = self.peaks.bins[i] as usize;
             let [_, f1, f2, f3] = black_box(&self.spectra);
             let xc = dft_bins3([f1, f2, f3], k);
-            let pc = [power(xc[0]), power(xc[1]), power(xc[2])];
-            let Some(y) = feature_from_powers(self.omni_power[k], pc) else {
+            let Some(y) = self
+                .curves
+                .features
+                .of_bin(self.spectra[0][k], self.omni_power[k], xc)
+            else {
                 continue;
             };
             used[n_used] = PeakFeature {
