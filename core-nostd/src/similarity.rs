@@ -172,21 +172,13 @@ impl CurveBuilder {
             && !self.mean_free
             && self.noisy.mixing() != NoiseMixing::Power;
         if fast {
-            let d = [
-                y[0] - noise_mag[0],
-                y[1] - noise_mag[1],
-                y[2] - noise_mag[2],
-            ];
+            let d = minus(y, noise_mag);
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let alphas = self.noisy.alphas();
             let n = alphas.len();
             if self.noisy.nearest_ok() {
                 for (c, r) in curve.iter_mut().zip(row) {
-                    let r = [
-                        r[0] - noise_mag[0],
-                        r[1] - noise_mag[1],
-                        r[2] - noise_mag[2],
-                    ];
+                    let r = minus(*r, noise_mag);
                     let [m0, m1, m2, rr, sc] = row_constants(r);
                     let m2dr = d[0] * m0 + d[1] * m1 + d[2] * m2;
                     let a = alphas[self.noisy.nearest(m2dr * sc)];
@@ -196,11 +188,7 @@ impl CurveBuilder {
                 return;
             }
             for (c, r) in curve.iter_mut().zip(row) {
-                let r = [
-                    r[0] - noise_mag[0],
-                    r[1] - noise_mag[1],
-                    r[2] - noise_mag[2],
-                ];
+                let r = minus(*r, noise_mag);
                 let dr = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
                 let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
                 // ‖d − α·r‖² is a parabola in α with its minimum at α* = d·r / ‖r‖², so the best of the
@@ -306,23 +294,17 @@ impl CurveBuilder {
             return;
         }
         let noise_mag = self.noise_mag(table, fi);
+        let entries = table
+            .row(fi)
+            .iter()
+            .take(ROW_CACHE_LEN)
+            .map(|r| row_constants(minus(*r, noise_mag)));
         #[cfg(not(target_arch = "x86_64"))]
-        for (e, r) in cache.rows.iter_mut().zip(table.row(fi)) {
-            let r = [
-                r[0] - noise_mag[0],
-                r[1] - noise_mag[1],
-                r[2] - noise_mag[2],
-            ];
-            *e = row_constants(r);
+        for (e, c) in cache.rows.iter_mut().zip(entries) {
+            *e = c;
         }
         #[cfg(target_arch = "x86_64")]
-        for (q, r) in table.row(fi).iter().take(ROW_CACHE_LEN).enumerate() {
-            let r = [
-                r[0] - noise_mag[0],
-                r[1] - noise_mag[1],
-                r[2] - noise_mag[2],
-            ];
-            let e = row_constants(r);
+        for (q, e) in entries.enumerate() {
             for k in 0..5 {
                 cache.soa[k][q] = e[k];
             }
@@ -341,14 +323,7 @@ impl CurveBuilder {
         weights: [f32; G],
         curve: &mut [f32],
     ) {
-        let d: [Feature; G] = core::array::from_fn(|g| {
-            let y = ys[g];
-            [
-                y[0] - noise_mag[0],
-                y[1] - noise_mag[1],
-                y[2] - noise_mag[2],
-            ]
-        });
+        let d: [Feature; G] = ys.map(|y| minus(y, noise_mag));
         let dd: [f32; G] = core::array::from_fn(|g| {
             let d = d[g];
             d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
@@ -419,6 +394,12 @@ impl CurveBuilder {
         }
         best
     }
+}
+
+/// a − b per component.
+#[inline(always)]
+fn minus(a: Feature, b: Feature) -> Feature {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// The per-azimuth constants of the nearest-α fast path for r = Y_ref(q) − Y_η: −2r, ‖r‖² and
