@@ -13,6 +13,7 @@ pub mod distance_eval;
 pub mod emit;
 pub mod error;
 pub mod eval;
+pub mod fixed_decimal;
 pub mod ground_truth;
 pub mod locate;
 pub mod manifest;
@@ -241,7 +242,7 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
             let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;
             locate::write_csv(std::io::BufWriter::new(f), &rows).map_err(|e| SimError::io(tmp, e))
         }),
-        None => locate::write_csv(std::io::stdout().lock(), &rows)
+        None => locate::write_csv(std::io::BufWriter::new(std::io::stdout().lock()), &rows)
             .map_err(|e| SimError::io(stdout_text::STDOUT, e)),
     }
 }

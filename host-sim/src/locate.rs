@@ -2,6 +2,7 @@
 //! one CSV row per analysis frame.
 
 use crate::error::{Result, SimError};
+use crate::fixed_decimal::write_fixed;
 use crate::wav_io::{Recording, RecordingStream};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
 use std::io::Write;
@@ -110,11 +111,18 @@ pub fn write_csv(mut out: impl Write, rows: &[Row]) -> std::io::Result<()> {
     for r in rows {
         let e = &r.estimate;
         let db = 10.0 * (e.power.max(1e-30) as f64).log10();
-        writeln!(
-            out,
-            "{},{:.6},{:.2},{:.2},{:.4},{:.1},{}",
-            e.frame_index, r.t_s, e.azimuth_deg, e.azimuth_raw_deg, e.confidence, db, e.flags.0
-        )?;
+        // "{},{:.6},{:.2},{:.2},{:.4},{:.1},{}" without the general float formatter.
+        write!(out, "{},", e.frame_index)?;
+        write_fixed(&mut out, r.t_s, 6)?;
+        out.write_all(b",")?;
+        write_fixed(&mut out, f64::from(e.azimuth_deg), 2)?;
+        out.write_all(b",")?;
+        write_fixed(&mut out, f64::from(e.azimuth_raw_deg), 2)?;
+        out.write_all(b",")?;
+        write_fixed(&mut out, f64::from(e.confidence), 4)?;
+        out.write_all(b",")?;
+        write_fixed(&mut out, db, 1)?;
+        writeln!(out, ",{}", e.flags.0)?;
     }
     out.flush()
 }

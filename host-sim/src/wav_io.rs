@@ -521,20 +521,22 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) ->
 mod tests {
     use super::*;
 
-    /// The bulk decoder gives exactly what hound's sample iterator gives, for every supported format.
+    /// The bulk decoder gives exactly what hound's sample iterator gives, for every supported format,
+    /// with the extreme codes, for four channels and (24-bit) for one with an odd sample count.
     #[test]
     fn bulk_decoding_equals_hound() {
         let dir = tempfile::tempdir().unwrap();
-        for (bits, float) in [
-            (8u16, false),
-            (16, false),
-            (24, false),
-            (32, false),
-            (32, true),
+        for (bits, float, channels) in [
+            (8u16, false, 4u16),
+            (16, false, 4),
+            (24, false, 4),
+            (24, false, 1),
+            (32, false, 4),
+            (32, true, 4),
         ] {
-            let p = dir.path().join(format!("f{bits}{float}.wav"));
+            let p = dir.path().join(format!("f{bits}{float}{channels}.wav"));
             let spec = hound::WavSpec {
-                channels: 4,
+                channels,
                 sample_rate: 16000,
                 bits_per_sample: bits,
                 sample_format: if float {
@@ -545,12 +547,19 @@ mod tests {
             };
             let mut w = hound::WavWriter::create(&p, spec).unwrap();
             let full = (1i64 << (bits - 1)) - 1;
-            for i in 0..4000i64 {
+            let n = if channels == 1 { 4003 } else { 4000i64 };
+            for i in 0..n {
                 let x = ((i * 7919) % 2001 - 1000) as f64 / 1000.0;
                 if float {
                     w.write_sample(x as f32).unwrap();
                 } else {
-                    w.write_sample((x * full as f64) as i32).unwrap();
+                    // The most negative code too.
+                    let code = if i % 97 == 5 {
+                        -full - 1
+                    } else {
+                        (x * full as f64) as i64
+                    };
+                    w.write_sample(code as i32).unwrap();
                 }
             }
             w.finalize().unwrap();
@@ -569,7 +578,11 @@ mod tests {
                     .collect()
             };
             let (_, ours) = read_interleaved(&p).unwrap();
-            assert_eq!(ours, via_hound, "{bits} bit float={float}");
+            assert_eq!(ours.len() as i64, n);
+            assert_eq!(
+                ours, via_hound,
+                "{bits} bit float={float} channels={channels}"
+            );
         }
     }
 
