@@ -29,6 +29,19 @@ pub const LANES: usize = if cfg!(target_arch = "arm") {
     CHANNELS
 };
 
+/// Looks at every input sample frame [`BlockDecimator::run_checked`] takes, in the same pass as the
+/// decimation (the front end's input check on x86_64, where the decimator's recursions leave the
+/// vector units idle most of the time); `()` looks at nothing.
+pub trait FrameCheck: Copy {
+    /// Takes note of one input sample frame.
+    fn see(&mut self, x: &[f32; CHANNELS]);
+}
+
+impl FrameCheck for () {
+    #[inline(always)]
+    fn see(&mut self, _: &[f32; CHANNELS]) {}
+}
+
 /// Decimator state of all channels for block processing ([`BlockDecimator::run`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct BlockDecimator {
@@ -83,16 +96,32 @@ impl BlockDecimator {
         input: &[[f32; CHANNELS]],
         out: [&mut [f32]; CHANNELS],
     ) -> usize {
-        self.run_lanes::<LANES>(d, input, out)
+        self.run_lanes::<LANES, ()>(d, input, out, &mut ())
+    }
+
+    /// [`BlockDecimator::run`], with `check` shown every sample frame of `input` (once each, in the
+    /// same pass).
+    ///
+    /// # Panics
+    /// If `out` has less room than the outputs.
+    pub fn run_checked<C: FrameCheck>(
+        &mut self,
+        d: &Decimator,
+        input: &[[f32; CHANNELS]],
+        out: [&mut [f32]; CHANNELS],
+        check: &mut C,
+    ) -> usize {
+        self.run_lanes::<LANES, C>(d, input, out, check)
     }
 
     /// [`BlockDecimator::run`] with `L` channels in lockstep in whole groups (`L` divides
     /// [`CHANNELS`]); for tests of both layouts on any target.
-    pub(crate) fn run_lanes<const L: usize>(
+    pub(crate) fn run_lanes<const L: usize, C: FrameCheck>(
         &mut self,
         d: &Decimator,
         input: &[[f32; CHANNELS]],
         mut out: [&mut [f32]; CHANNELS],
+        check: &mut C,
     ) -> usize {
         if d.stages().is_empty() {
             return 0;
@@ -103,6 +132,7 @@ impl BlockDecimator {
             let Some((x, r)) = rest.split_first() else {
                 break;
             };
+            check.see(x);
             self.step(d, *x, &mut out, &mut n);
             rest = r;
         }
@@ -116,11 +146,16 @@ impl BlockDecimator {
                 if L == CHANNELS {
                     // One pass with a constant first channel (whole sample frames as vectors).
                     let o = core::array::from_fn(|_| outs.next().unwrap_or_default());
-                    run_groups::<L>(cascade, st, 0, body, o);
+                    *check = run_groups::<L, C>(cascade, st, 0, body, o, *check);
                 } else {
+                    // The check rides along with the first channel group.
                     for c0 in (0..CHANNELS).step_by(L) {
                         let o = core::array::from_fn(|_| outs.next().unwrap_or_default());
-                        run_groups::<L>(cascade, st, c0, body, o);
+                        if c0 == 0 {
+                            *check = run_groups::<L, C>(cascade, st, c0, body, o, *check);
+                        } else {
+                            run_groups::<L, ()>(cascade, st, c0, body, o, ());
+                        }
                     }
                 }
                 n += groups;
@@ -128,6 +163,7 @@ impl BlockDecimator {
             rest = tail;
         }
         for x in rest {
+            check.see(x);
             self.step(d, *x, &mut out, &mut n);
         }
         n
@@ -160,19 +196,21 @@ fn first_lane<const L: usize>(c0: usize) -> usize {
     c0 & (CHANNELS - L)
 }
 
-/// Whole groups of `input` through `cascade`, channels `c0..c0 + L`.
+/// Whole groups of `input` through `cascade`, channels `c0..c0 + L`; `check` sees every sample
+/// frame and is returned.
 #[inline(always)]
-fn run_groups<const L: usize>(
+fn run_groups<const L: usize, C: FrameCheck>(
     cascade: Cascade,
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
-) {
+    check: C,
+) -> C {
     match cascade {
-        Cascade::Long => groups_long(st, c0, input, out),
-        Cascade::ShortLong => groups_short_long(st, c0, input, out),
-        Cascade::ShortShortLong => groups_short_short_long(st, c0, input, out),
+        Cascade::Long => groups_long(st, c0, input, out, check),
+        Cascade::ShortLong => groups_short_long(st, c0, input, out, check),
+        Cascade::ShortShortLong => groups_short_short_long(st, c0, input, out, check),
     }
 }
 
@@ -235,37 +273,46 @@ fn put<const L: usize>(out: &mut [&mut [f32]; L], g: usize, v: [f32; L]) {
 
 /// Whole groups of 2 input sample frames through a long stage, channels `c0..c0 + L`.
 #[inline(never)]
-fn groups_long<const L: usize>(
+fn groups_long<const L: usize, C: FrameCheck>(
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
-) {
+    mut check: C,
+) -> C {
     let c0 = first_lane::<L>(c0);
     let groups = input.len() / 2;
     let mut out = out.map(|o| &mut o[..groups]);
     let mut s0 = Lanes::<L>::load(&st[0], c0);
     for (g, f) in (0..groups).zip(input.chunks_exact(2)) {
+        for x in f {
+            check.see(x);
+        }
         let v = s0.pair(&HALFBAND_LONG, lanes(&f[0], c0), lanes(&f[1], c0), 0.5);
         put(&mut out, g, v);
     }
     s0.store(&mut st[0], c0);
+    check
 }
 
 /// Whole groups of 4 input sample frames through a short and a long stage, channels `c0..c0 + L`.
 #[inline(never)]
-fn groups_short_long<const L: usize>(
+fn groups_short_long<const L: usize, C: FrameCheck>(
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
-) {
+    mut check: C,
+) -> C {
     let c0 = first_lane::<L>(c0);
     let groups = input.len() / 4;
     let mut out = out.map(|o| &mut o[..groups]);
     let mut s0 = Lanes::<L>::load(&st[0], c0);
     let mut s1 = Lanes::<L>::load(&st[1], c0);
     for (g, f) in (0..groups).zip(input.chunks_exact(4)) {
+        for x in f {
+            check.see(x);
+        }
         let a = s0.pair(&HALFBAND_SHORT, lanes(&f[0], c0), lanes(&f[1], c0), 1.0);
         let b = s0.pair(&HALFBAND_SHORT, lanes(&f[2], c0), lanes(&f[3], c0), 1.0);
         let v = s1.pair(&HALFBAND_LONG, a, b, 0.25);
@@ -273,17 +320,19 @@ fn groups_short_long<const L: usize>(
     }
     s0.store(&mut st[0], c0);
     s1.store(&mut st[1], c0);
+    check
 }
 
 /// Whole groups of 8 input sample frames through two short stages and a long one, channels
 /// `c0..c0 + L`.
 #[inline(never)]
-fn groups_short_short_long<const L: usize>(
+fn groups_short_short_long<const L: usize, C: FrameCheck>(
     st: &mut [HalfbandState<CHANNELS>; 3],
     c0: usize,
     input: &[[f32; CHANNELS]],
     out: [&mut [f32]; L],
-) {
+    mut check: C,
+) -> C {
     let c0 = first_lane::<L>(c0);
     let groups = input.len() / 8;
     let mut out = out.map(|o| &mut o[..groups]);
@@ -291,6 +340,9 @@ fn groups_short_short_long<const L: usize>(
     let mut s1 = Lanes::<L>::load(&st[1], c0);
     let mut s2 = Lanes::<L>::load(&st[2], c0);
     for (g, f) in (0..groups).zip(input.chunks_exact(8)) {
+        for x in f {
+            check.see(x);
+        }
         let a0 = s0.pair(&HALFBAND_SHORT, lanes(&f[0], c0), lanes(&f[1], c0), 1.0);
         let a1 = s0.pair(&HALFBAND_SHORT, lanes(&f[2], c0), lanes(&f[3], c0), 1.0);
         let b0 = s1.pair(&HALFBAND_SHORT, a0, a1, 1.0);
@@ -303,6 +355,7 @@ fn groups_short_short_long<const L: usize>(
     s0.store(&mut st[0], c0);
     s1.store(&mut st[1], c0);
     s2.store(&mut st[2], c0);
+    check
 }
 
 #[cfg(test)]
@@ -319,6 +372,22 @@ mod tests {
         ]
     }
 
+    /// A [`FrameCheck`] that counts the sample frames and hashes them in order.
+    #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+    struct Tally {
+        frames: usize,
+        hash: u64,
+    }
+
+    impl FrameCheck for Tally {
+        fn see(&mut self, x: &[f32; CHANNELS]) {
+            self.frames += 1;
+            for v in x {
+                self.hash = (self.hash ^ u64::from(v.to_bits())).wrapping_mul(0x100_0000_01b3);
+            }
+        }
+    }
+
     /// `L` lanes in lockstep equal the per-sample decimator on every channel, bit for bit, for every
     /// rate and split (pieces that start and end anywhere in a group).
     fn equals_per_sample<const L: usize>() {
@@ -332,6 +401,7 @@ mod tests {
                 let mut got = [[0.0f32; N]; CHANNELS];
                 let mut want = [[0.0f32; N]; CHANNELS];
                 let (mut n_got, mut n_want) = (0, 0);
+                let mut tally = Tally::default();
                 for piece in input.chunks(split) {
                     let [o0, o1, o2, o3] = &mut got;
                     let out = [
@@ -340,7 +410,7 @@ mod tests {
                         &mut o2[n_got..],
                         &mut o3[n_got..],
                     ];
-                    n_got += block.run_lanes::<L>(&d, piece, out);
+                    n_got += block.run_lanes::<L, Tally>(&d, piece, out, &mut tally);
                     for x in piece {
                         let mut any = false;
                         for (ch, st) in reference.iter_mut().enumerate() {
@@ -354,6 +424,10 @@ mod tests {
                     assert_eq!(n_got, n_want, "rate {rate} split {split}");
                 }
                 assert_eq!(n_got, N / d.factor() as usize);
+                // The check saw every input sample frame once, in order.
+                let mut want_tally = Tally::default();
+                input.iter().for_each(|x| want_tally.see(x));
+                assert_eq!(tally, want_tally, "L {L} rate {rate} split {split}");
                 for ch in 0..CHANNELS {
                     for i in 0..n_got {
                         assert_eq!(

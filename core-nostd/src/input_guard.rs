@@ -64,9 +64,7 @@ impl InputGuard {
     ) -> &'a [[f32; CHANNELS]] {
         let n = block.len();
         if self.all_below_level(block) {
-            let n = u32::try_from(n).unwrap_or(u32::MAX);
-            state.clip_hold = state.clip_hold.saturating_sub(n);
-            state.nonfinite_hold = state.nonfinite_hold.saturating_sub(n);
+            self.pass_clean(state, n);
             return block;
         }
         let n = n.min(scratch.len());
@@ -100,6 +98,24 @@ impl InputGuard {
         state.clip_hold = count(state.clip_hold, last_clip);
         state.nonfinite_hold = count(state.nonfinite_hold, last_nonfinite);
         out
+    }
+
+    /// Counts down `n` sample frames that needed no cleaning (as [`InputGuard::process`] on each).
+    #[inline]
+    pub fn pass_clean(&self, state: &mut InputGuardState, n: usize) {
+        let n = u32::try_from(n).unwrap_or(u32::MAX);
+        state.clip_hold = state.clip_hold.saturating_sub(n);
+        state.nonfinite_hold = state.nonfinite_hold.saturating_sub(n);
+    }
+
+    /// The test of [`InputGuard::clean_block`]'s fast path as a
+    /// [`FrameCheck`](crate::block_decimator::FrameCheck), to run in the decimator's pass over the
+    /// input ([`crate::block_decimator::BlockDecimator::run_checked`]); `None` for a clip level ≤ 0
+    /// or NaN (every value suspect).
+    #[cfg(target_arch = "x86_64")]
+    #[must_use]
+    pub fn level_check(&self) -> Option<sse::LevelCheck> {
+        (self.clip_level > 0.0).then(|| sse::LevelCheck::new(self.clip_level.to_bits() << 1))
     }
 
     /// Whether every value of `block` is finite with |v| below the clip level (then the guard leaves
@@ -163,12 +179,60 @@ impl InputGuard {
 /// of its four values is a shift, an XOR and a compare (instead of the vectorised carry count, which
 /// transposes the frames first). Host only: the Cortex-M4F keeps the carry count.
 #[cfg(target_arch = "x86_64")]
-mod sse {
+pub(crate) mod sse {
+    use crate::block_decimator::FrameCheck;
     use crate::CHANNELS;
     use core::arch::x86_64::{
-        _mm_add_epi32, _mm_cmpgt_epi32, _mm_loadu_si128, _mm_movemask_epi8, _mm_or_si128,
+        __m128i, _mm_add_epi32, _mm_cmpgt_epi32, _mm_loadu_si128, _mm_movemask_epi8, _mm_or_si128,
         _mm_set1_epi32, _mm_setzero_si128, _mm_xor_si128,
     };
+
+    /// Whether sample frames are all finite and below the clip level, seen one at a time: the test
+    /// of [`none_at_or_above`] for a pass over the input that the decimator makes anyway.
+    #[derive(Debug, Clone, Copy)]
+    pub struct LevelCheck {
+        /// (limit − 1) ⊕ 2³¹ in every lane (see [`none_at_or_above`]).
+        threshold: __m128i,
+        /// Lanes of the values that failed so far, all ones.
+        bad: __m128i,
+    }
+
+    impl LevelCheck {
+        /// A check for the doubled level bits `limit` (≥ 2).
+        #[allow(unsafe_code)]
+        pub(super) fn new(limit: u32) -> Self {
+            // SAFETY: SSE2 is enabled on every x86_64 target; register operations only.
+            unsafe {
+                Self {
+                    threshold: _mm_set1_epi32((limit.wrapping_sub(1) as i32) ^ i32::MIN),
+                    bad: _mm_setzero_si128(),
+                }
+            }
+        }
+
+        /// No value seen so far failed: the frames can skip the cleaning of
+        /// [`super::InputGuard::clean_block`] (count them down with
+        /// [`super::InputGuard::pass_clean`]).
+        #[allow(unsafe_code)]
+        #[must_use]
+        pub fn passed(&self) -> bool {
+            // SAFETY: as in `new`.
+            unsafe { _mm_movemask_epi8(self.bad) == 0 }
+        }
+    }
+
+    impl FrameCheck for LevelCheck {
+        #[allow(unsafe_code)]
+        #[inline(always)]
+        fn see(&mut self, x: &[f32; CHANNELS]) {
+            // SAFETY: as in `none_at_or_above`.
+            unsafe {
+                let bits = _mm_loadu_si128(x.as_ptr().cast());
+                let u = _mm_xor_si128(_mm_add_epi32(bits, bits), _mm_set1_epi32(i32::MIN));
+                self.bad = _mm_or_si128(self.bad, _mm_cmpgt_epi32(u, self.threshold));
+            }
+        }
+    }
 
     /// Whether no value v of `block` has u = 2·abs_bits(v) ≥ `limit` (unsigned; `limit` ≥ 2, the
     /// doubled bits of a level > 0). Unsigned u ≥ limit ⟺ u > limit − 1 ⟺ (u ⊕ 2³¹) > (limit − 1)
