@@ -114,7 +114,7 @@ impl InputGuard {
     /// or NaN (every value suspect).
     #[cfg(target_arch = "x86_64")]
     #[must_use]
-    pub fn level_check(&self) -> Option<sse::LevelCheck> {
+    pub(crate) fn level_check(&self) -> Option<sse::LevelCheck> {
         (self.clip_level > 0.0).then(|| sse::LevelCheck::new(self.clip_level.to_bits() << 1))
     }
 
