@@ -370,8 +370,9 @@ mod tests {
         }
     }
 
-    /// The integer test agrees with the float test at the level's neighbours and elsewhere, for any
-    /// sign and channel, and for levels ≤ 0 or NaN.
+    /// The integer test (the separate scan, and on x86_64 the one in the decimator's pass) agrees
+    /// with the float test at the level's neighbours and elsewhere, for any sign and channel, and for
+    /// levels ≤ 0 or NaN.
     #[test]
     fn level_test_is_exact() {
         for level in [
@@ -413,6 +414,19 @@ mod tests {
                     x[ch] = v;
                     let pass = g.all_below_level(&[[0.0; CHANNELS], x]);
                     assert_eq!(pass, below && level > 0.0, "level {level} v {v} ch {ch}");
+                    // The same test inside the decimator's pass (x86_64): `None` where every value
+                    // is suspect.
+                    #[cfg(target_arch = "x86_64")]
+                    {
+                        use crate::block_decimator::FrameCheck;
+                        let fused = g.level_check().map(|mut c| {
+                            c.see(&[0.0; CHANNELS]);
+                            c.see(&x);
+                            c.passed()
+                        });
+                        assert_eq!(fused.unwrap_or(false), pass, "fused: level {level} v {v}");
+                        assert_eq!(fused.is_none(), !(level > 0.0), "level {level}");
+                    }
                 }
             }
         }
