@@ -188,10 +188,14 @@ pub(crate) mod sse {
     };
 
     /// Whether sample frames are all finite and below the clip level, seen one at a time: the test
-    /// of [`none_at_or_above`] for a pass over the input that the decimator makes anyway.
+    /// of [`none_at_or_above`], also run inside the decimator's pass over the input.
+    ///
+    /// A value v fails when u = 2·abs_bits(v) ≥ `limit` (unsigned). Unsigned u ≥ limit ⟺
+    /// u > limit − 1 ⟺ (u ⊕ 2³¹) > (limit − 1) ⊕ 2³¹ as signed integers, which `_mm_cmpgt_epi32`
+    /// tests; the lanes that fail are ORed together.
     #[derive(Debug, Clone, Copy)]
     pub struct LevelCheck {
-        /// (limit − 1) ⊕ 2³¹ in every lane (see [`none_at_or_above`]).
+        /// (limit − 1) ⊕ 2³¹ in every lane.
         threshold: __m128i,
         /// Lanes of the values that failed so far, all ones.
         bad: __m128i,
@@ -225,7 +229,9 @@ pub(crate) mod sse {
         #[allow(unsafe_code)]
         #[inline(always)]
         fn see(&mut self, x: &[f32; CHANNELS]) {
-            // SAFETY: as in `none_at_or_above`.
+            // SAFETY: SSE2 is enabled on every x86_64 target, so the intrinsics exist; they work on
+            // registers only, except `_mm_loadu_si128`, which reads the 16 bytes of the `[f32; 4]`
+            // behind `x` (a valid reference; the unaligned load needs no alignment).
             unsafe {
                 let bits = _mm_loadu_si128(x.as_ptr().cast());
                 let u = _mm_xor_si128(_mm_add_epi32(bits, bits), _mm_set1_epi32(i32::MIN));
@@ -235,28 +241,14 @@ pub(crate) mod sse {
     }
 
     /// Whether no value v of `block` has u = 2·abs_bits(v) ≥ `limit` (unsigned; `limit` ≥ 2, the
-    /// doubled bits of a level > 0). Unsigned u ≥ limit ⟺ u > limit − 1 ⟺ (u ⊕ 2³¹) > (limit − 1)
-    /// ⊕ 2³¹ as signed integers, which `_mm_cmpgt_epi32` tests; the lanes that fail are ORed together.
-    #[allow(unsafe_code)]
+    /// doubled bits of a level > 0): a [`LevelCheck`] over the block.
     #[inline]
     pub(super) fn none_at_or_above(block: &[[f32; CHANNELS]], limit: u32) -> bool {
-        const SIGN: i32 = i32::MIN;
-        let threshold = (limit.wrapping_sub(1) as i32) ^ SIGN;
-        // SAFETY: SSE2 is enabled on every x86_64 target, so the intrinsics exist; they work on
-        // registers only, except `_mm_loadu_si128`, which reads the 16 bytes of one `[f32; 4]`
-        // element of `block` through a reference to it (valid, and the unaligned load needs no
-        // alignment).
-        unsafe {
-            let sign = _mm_set1_epi32(SIGN);
-            let t = _mm_set1_epi32(threshold);
-            let mut bad = _mm_setzero_si128();
-            for x in block {
-                let bits = _mm_loadu_si128(x.as_ptr().cast());
-                let u = _mm_xor_si128(_mm_add_epi32(bits, bits), sign);
-                bad = _mm_or_si128(bad, _mm_cmpgt_epi32(u, t));
-            }
-            _mm_movemask_epi8(bad) == 0
+        let mut check = LevelCheck::new(limit);
+        for x in block {
+            check.see(x);
         }
+        check.passed()
     }
 }
 
