@@ -74,16 +74,29 @@ impl FrontEnd {
         if len == 0 {
             return (0, false);
         }
+        let piece = &block[..len];
         #[cfg(target_arch = "x86_64")]
-        if let Some(done) = self.feed_checked(&block[..len]) {
-            return done;
-        }
+        let checked = self.decimate_checked(piece);
+        #[cfg(not(target_arch = "x86_64"))]
+        let checked = None;
+        let (len, produced) = match checked {
+            Some(produced) => (len, produced),
+            None => self.clean_and_decimate(piece),
+        };
+        self.phase = (self.phase + len) % factor;
+        (len, self.framer.commit(produced))
+    }
+
+    /// The guard cleans (the start of) `piece` ([`InputGuard::clean_block`]), and the decimator (or,
+    /// at factor 1, a copy) writes it into the framer; returns the sample frames consumed and the
+    /// samples written per channel, not yet committed.
+    fn clean_and_decimate(&mut self, piece: &[[f32; CHANNELS]]) -> (usize, usize) {
         let block = self
             .guard
-            .clean_block(&mut self.guard_state, &block[..len], &mut self.scratch);
+            .clean_block(&mut self.guard_state, piece, &mut self.scratch);
         let len = block.len();
         let mut free = self.framer.free_mut();
-        let produced = if factor == 1 {
+        let produced = if self.decimator.factor() == 1 {
             for (i, x) in block.iter().enumerate() {
                 for (o, v) in free.iter_mut().zip(x) {
                     o[i] = *v;
@@ -93,20 +106,19 @@ impl FrontEnd {
         } else {
             self.lines.run(&self.decimator, block, free)
         };
-        self.phase = (self.phase + len) % factor;
-        (len, self.framer.commit(produced))
+        (len, produced)
     }
 
-    /// x86_64: [`FrontEnd::feed`] with the guard's test in the decimator's pass, for a piece that needs
-    /// no cleaning (the common case): one pass over the input instead of two. The decimator's vector
-    /// recursions are latency-bound, so the test's few integer operations per sample frame come
-    /// almost for free. If a value fails, the decimator state is put back and `None` sends the piece
+    /// x86_64: [`FrontEnd::clean_and_decimate`] with the guard's test in the decimator's pass, for a
+    /// piece that needs no cleaning (the common case): one pass over the input instead of two. The
+    /// decimator's vector recursions are latency-bound, so the test's few integer operations per
+    /// sample frame come almost for free. Returns the samples written per channel (all of `piece`
+    /// is consumed). If a value fails, the decimator state is put back and `None` sends the piece
     /// down the ordinary path, so the outputs are those of `feed` bit for bit. (The Cortex-M4F keeps
     /// the separate scan: one lane at a time, its decimator passes over each sample frame four times.)
     #[cfg(target_arch = "x86_64")]
-    fn feed_checked(&mut self, piece: &[[f32; CHANNELS]]) -> Option<(usize, bool)> {
-        let factor = self.decimator.factor() as usize;
-        if factor == 1 {
+    fn decimate_checked(&mut self, piece: &[[f32; CHANNELS]]) -> Option<usize> {
+        if self.decimator.factor() == 1 {
             return None;
         }
         let mut check = self.guard.level_check()?;
@@ -119,8 +131,7 @@ impl FrontEnd {
             return None;
         }
         self.guard.pass_clean(&mut self.guard_state, piece.len());
-        self.phase = (self.phase + piece.len()) % factor;
-        Some((piece.len(), self.framer.commit(produced)))
+        Some(produced)
     }
 
     /// The complete analysis frame, oldest sample first (after [`FrontEnd::feed`] said so).
