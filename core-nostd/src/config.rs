@@ -5,6 +5,7 @@ use crate::combination::{Combination, FdivSpread};
 use crate::direct_sound::DirectSound;
 use crate::error::Error;
 use crate::features::FeatureKind;
+use crate::frame_onset::FrameOnset;
 use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
 use crate::input_guard::InputGuard;
@@ -113,6 +114,8 @@ pub struct LocatorConfig {
     pub quality: FrameQuality,
     /// Noise-floor gate of the reliability b (similarity method; not in the thesis).
     pub noise_gate: NoiseGate,
+    /// Frame onset weighting of the reliability b (similarity method; not in the thesis).
+    pub frame_onset: FrameOnset,
     /// How the peaks of a frame are combined (§5.1.4: rule 1 mean curve, rule 2 eq. 5.13).
     pub combination: Combination,
     /// Where b filters: the similarity curve (eq. 5.31) or the result in Cartesian form (eq. 5.30).
@@ -157,6 +160,7 @@ impl LocatorConfig {
             fdiv_pole: 0.95,
             quality: FrameQuality::DEFAULT,
             noise_gate: NoiseGate::OFF,
+            frame_onset: FrameOnset::OFF,
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,

@@ -54,6 +54,7 @@ pub mod fdiv;
 pub mod features;
 #[cfg(target_arch = "x86_64")]
 mod fft_x86;
+pub mod frame_onset;
 pub mod frame_quality;
 pub mod framer;
 pub mod front_end;

@@ -20,6 +20,7 @@ use crate::error::Error;
 use crate::estimate::{Estimate, Flags};
 use crate::fdiv::{fdiv_process, FdivState};
 use crate::features::FeatureKind;
+use crate::frame_onset::FrameOnsetState;
 use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::InputGuard;
@@ -82,6 +83,8 @@ pub struct Locator<'t> {
     cartesian: CartesianFilter,
     /// Background power for the noise-floor gate.
     noise_floor: NoiseFloor,
+    /// Power history for the frame onset weight.
+    frame_onset: FrameOnsetState,
 }
 
 impl<'t> Locator<'t> {
@@ -157,6 +160,7 @@ impl<'t> Locator<'t> {
             tdiv: TdivState::new(),
             cartesian: CartesianFilter::new(),
             noise_floor: NoiseFloor::idle(),
+            frame_onset: FrameOnsetState::idle(),
             have_history: false,
             last_azimuth: 0.0,
             last_hop_energy: (u32::MAX, 0.0),
@@ -193,6 +197,7 @@ impl<'t> Locator<'t> {
         self.cartesian = CartesianFilter::new();
         self.noise_floor =
             NoiseFloor::new(&config.noise_gate, self.analysis_rate() as f32 / HOP as f32);
+        self.frame_onset = FrameOnsetState::new(&config.frame_onset);
         self.have_history = false;
         self.last_azimuth = 0.0;
         self.last_hop_energy = (u32::MAX, 0.0);
@@ -254,6 +259,11 @@ impl<'t> Locator<'t> {
         if c.noise_gate.enabled && !c.noise_gate.is_valid() {
             return Err(Error::InvalidConfig(
                 "noise gate: need a finite rise ≥ 0 and open < full",
+            ));
+        }
+        if c.frame_onset.enabled && !c.frame_onset.is_valid() {
+            return Err(Error::InvalidConfig(
+                "frame onset: history 1…8 frames, finite low < high, floor in [0, 1]",
             ));
         }
         if let Tracking::Grid(t) = c.tracking {
@@ -383,6 +393,11 @@ impl<'t> Locator<'t> {
             Method::Similarity => {
                 let gate = if self.config.noise_gate.enabled {
                     gate * self.noise_floor.update(frame_power)
+                } else {
+                    gate
+                };
+                let gate = if self.config.frame_onset.enabled {
+                    gate * self.frame_onset.update(frame_power)
                 } else {
                     gate
                 };
@@ -684,7 +699,7 @@ mod tests {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
         assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
-        let mut bad = [LocatorConfig::default(); 6];
+        let mut bad = [LocatorConfig::default(); 8];
         bad[0].band_hi_hz = 100.0;
         bad[1].num_peaks = 0;
         bad[2].noise_gate.full_db = bad[2].noise_gate.open_db;
@@ -698,6 +713,16 @@ mod tests {
         });
         bad[5].features = crate::features::FeatureKind::Active;
         bad[5].noise_mixing = NoiseMixing::Power;
+        bad[6].frame_onset = crate::frame_onset::FrameOnset {
+            enabled: true,
+            history: 9,
+            ..crate::frame_onset::FrameOnset::OFF
+        };
+        bad[7].frame_onset = crate::frame_onset::FrameOnset {
+            enabled: true,
+            high_db: -2.0,
+            ..crate::frame_onset::FrameOnset::OFF
+        };
         for (i, c) in bad.into_iter().enumerate() {
             assert!(
                 matches!(Locator::new(c, table, 48_000), Err(Error::InvalidConfig(_))),
@@ -708,6 +733,7 @@ mod tests {
         let mut off = LocatorConfig::default();
         off.noise_gate.enabled = false;
         off.noise_gate.full_db = f32::NAN;
+        off.frame_onset.history = 0;
         assert!(Locator::new(off, table, 48_000).is_ok());
     }
 }

@@ -173,6 +173,21 @@ pub struct ConfigArgs {
     /// Noise-floor gate: frame power above the floor (dB) where b passes fully.
     #[arg(long)]
     pub gate_full: Option<f32>,
+    /// Frame onset weighting of the reliability b: on or off.
+    #[arg(long, value_enum)]
+    pub frame_onset: Option<OnOff>,
+    /// Frame onset: frames of power history the rise is measured against.
+    #[arg(long)]
+    pub frame_onset_history: Option<usize>,
+    /// Frame onset: rise (dB) at and below which a frame gets the floor weight.
+    #[arg(long, allow_negative_numbers = true)]
+    pub frame_onset_low: Option<f32>,
+    /// Frame onset: rise (dB) at and above which a frame gets full weight.
+    #[arg(long, allow_negative_numbers = true)]
+    pub frame_onset_high: Option<f32>,
+    /// Frame onset: weight of frames at or below the low rise.
+    #[arg(long)]
+    pub frame_onset_floor: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -308,6 +323,21 @@ impl ConfigArgs {
         }
         if let Some(v) = self.gate_full {
             c.noise_gate.full_db = v;
+        }
+        if let Some(v) = self.frame_onset {
+            c.frame_onset.enabled = v == OnOff::On;
+        }
+        if let Some(v) = self.frame_onset_history {
+            c.frame_onset.history = v;
+        }
+        if let Some(v) = self.frame_onset_low {
+            c.frame_onset.low_db = v;
+        }
+        if let Some(v) = self.frame_onset_high {
+            c.frame_onset.high_db = v;
+        }
+        if let Some(v) = self.frame_onset_floor {
+            c.frame_onset.floor = v;
         }
         if let Some(v) = self.directness {
             c.direct_sound.directness_exponent = v;

@@ -147,6 +147,15 @@ fn bad_flags() {
     assert!(m.contains("noise gate"), "{m}");
     let m = err_of(&["locate", &w, "--refine-gain", "1.5"]);
     assert!(m.contains("grid tracker"), "{m}");
+    let m = err_of(&[
+        "locate",
+        &w,
+        "--frame-onset",
+        "on",
+        "--frame-onset-floor",
+        "2",
+    ]);
+    assert!(m.contains("frame onset"), "{m}");
     let m = err_of(&["locate", &w, "--noise-gate", "maybe"]);
     assert!(m.contains("--noise-gate"), "{m}");
     let m = err_of(&["locate", &w, "--features", "phase"]);

@@ -57,6 +57,7 @@ fn thesis_preset_switches_and_baselines_also_localize() {
         &["--grid", "15"],
         &["--features", "active"],
         &["--preset", "thesis", "--features", "active"],
+        &["--frame-onset", "on", "--frame-onset-floor", "0.5"],
     ] {
         let rows = locate(&wav, flags);
         let err = errors_after(&rows, 1.5, 60.0);
