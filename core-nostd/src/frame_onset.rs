@@ -4,13 +4,16 @@
 //! In a room the direct sound of a syllable arrives first and its reflections pile up behind it:
 //! while the frame power rises the direct sound dominates, while it falls the frame is mostly
 //! reverberation, whose direction is wherever the strongest reflections come from. On the eval
-//! folder's room scenes (frames with b > 0.3) the raw estimate's median error is 7–9° in frames whose
-//! power is below the largest of the three frames before, and 3.6–4.4° in frames 1–6 dB above it.
+//! folder's room scenes (frames with b > 0.3) the raw estimate's median error is 5.8–8.7° in frames
+//! whose power is below the largest of the three frames before, and 3.6–4.4° in frames 1–6 dB above
+//! it.
 //! The peak-level onset weight of [`crate::direct_sound`] ranks the peaks inside a frame; this one
 //! ranks the frames.
 //!
 //! The rise is r = P / max(P₋₁ … P₋ₙ) over the last n frame powers; the weight ramps linearly in r
 //! from [`FrameOnset::floor`] at [`FrameOnset::low_db`] to 1 at [`FrameOnset::high_db`].
+
+use crate::power_ramp::PowerRamp;
 
 /// Most frames of power history.
 pub const MAX_ONSET_HISTORY: usize = 8;
@@ -63,8 +66,8 @@ pub struct FrameOnsetState {
     powers: [f32; MAX_ONSET_HISTORY],
     next: usize,
     history: usize,
-    low: f32,
-    high: f32,
+    /// From the settings' `low_db` to their `high_db`.
+    ramp: PowerRamp,
     floor: f32,
 }
 
@@ -73,13 +76,11 @@ impl FrameOnsetState {
     /// [`FrameOnset::is_valid`]; a history outside 1…[`MAX_ONSET_HISTORY`] is clamped).
     #[must_use]
     pub fn new(onset: &FrameOnset) -> Self {
-        let ratio = |db: f32| libm::powf(10.0, db / 10.0);
         Self {
             powers: [0.0; MAX_ONSET_HISTORY],
             next: 0,
             history: onset.history.clamp(1, MAX_ONSET_HISTORY),
-            low: ratio(onset.low_db),
-            high: ratio(onset.high_db),
+            ramp: PowerRamp::from_db(onset.low_db, onset.high_db),
             floor: onset.floor,
         }
     }
@@ -91,8 +92,7 @@ impl FrameOnsetState {
             powers: [0.0; MAX_ONSET_HISTORY],
             next: 0,
             history: 1,
-            low: 0.0,
-            high: 1.0,
+            ramp: PowerRamp::UNIT,
             floor: 1.0,
         }
     }
@@ -115,8 +115,7 @@ impl FrameOnsetState {
         if !ok || !(before > 0.0) {
             return self.floor;
         }
-        let t = ((power / before - self.low) / (self.high - self.low)).clamp(0.0, 1.0);
-        self.floor + (1.0 - self.floor) * t
+        self.floor + (1.0 - self.floor) * self.ramp.at(power / before)
     }
 }
 
@@ -132,9 +131,7 @@ mod tests {
         floor: 0.25,
     };
 
-    fn db(x: f32) -> f32 {
-        libm::powf(10.0, x / 10.0)
-    }
+    use crate::power_ramp::power_ratio_from_db as db;
 
     #[test]
     fn rising_frames_weigh_more_than_decaying_ones() {
@@ -145,7 +142,8 @@ mod tests {
         assert!((s.update(db(3.0)) - 1.0).abs() < 1e-6);
         // 4 dB below the largest (the frame just before): the floor.
         assert_eq!(s.update(db(-1.0)), 0.25);
-        // Half-way (in power ratio) between −1 and 3 dB above the largest of the last three: half-way.
+        // Half-way (in power ratio) between −1 and 3 dB above the largest of the last three:
+        // half-way.
         let p = db(3.0) * 0.5 * (db(-1.0) + db(3.0));
         let w = s.update(p);
         assert!((w - (0.25 + 0.75 * 0.5)).abs() < 1e-5, "{w}");

@@ -65,6 +65,7 @@ pub mod locator;
 pub mod noise_floor;
 pub mod noisy_reference;
 pub mod peak_picker;
+pub mod power_ramp;
 pub mod reference_table;
 pub mod reliability;
 pub mod running_curve;

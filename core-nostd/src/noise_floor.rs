@@ -7,6 +7,8 @@
 //! rises by at most [`NoiseGate::rise_db_per_s`]), and the gate ramps b linearly in power from 0 at
 //! [`NoiseGate::open_db`] above the floor to 1 at [`NoiseGate::full_db`].
 
+use crate::power_ramp::{power_ratio_from_db, PowerRamp};
+
 /// Gate settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoiseGate {
@@ -45,20 +47,18 @@ impl NoiseGate {
 pub struct NoiseFloor {
     floor: f32,
     rise: f32,
-    open: f32,
-    full: f32,
+    /// From the gate's `open_db` to its `full_db`.
+    ramp: PowerRamp,
 }
 
 impl NoiseFloor {
     /// A floor for `gate` at `frames_per_s` analysis frames per second (no frame seen yet).
     #[must_use]
     pub fn new(gate: &NoiseGate, frames_per_s: f32) -> Self {
-        let ratio = |db: f32| libm::powf(10.0, db / 10.0);
         Self {
             floor: f32::NAN,
-            rise: ratio(gate.rise_db_per_s / frames_per_s),
-            open: ratio(gate.open_db),
-            full: ratio(gate.full_db),
+            rise: power_ratio_from_db(gate.rise_db_per_s / frames_per_s),
+            ramp: PowerRamp::from_db(gate.open_db, gate.full_db),
         }
     }
 
@@ -68,8 +68,7 @@ impl NoiseFloor {
         Self {
             floor: f32::NAN,
             rise: 1.0,
-            open: 0.0,
-            full: 1.0,
+            ramp: PowerRamp::UNIT,
         }
     }
 
@@ -91,8 +90,7 @@ impl NoiseFloor {
         } else {
             risen
         };
-        let r = power / self.floor;
-        ((r - self.open) / (self.full - self.open)).clamp(0.0, 1.0)
+        self.ramp.at(power / self.floor)
     }
 }
 
