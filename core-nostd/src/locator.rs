@@ -397,7 +397,7 @@ impl<'t> Locator<'t> {
                     gate
                 };
                 let gate = if self.config.frame_onset.enabled {
-                    gate * frame_onset_weight(&mut self.frame_onset, frame_power)
+                    gate * self.frame_onset.update(frame_power)
                 } else {
                     gate
                 };
@@ -687,13 +687,6 @@ impl<'t> Locator<'t> {
             confidence: b,
         }
     }
-}
-
-/// The frame-onset weight, out of line: it is off by default.
-#[cold]
-#[inline(never)]
-fn frame_onset_weight(state: &mut FrameOnsetState, power: f32) -> f32 {
-    state.update(power)
 }
 
 #[cfg(test)]
