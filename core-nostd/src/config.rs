@@ -63,6 +63,13 @@ pub const DEFAULT_NOISE_GATE: NoiseGate = NoiseGate {
     full_db: 2.0,
 };
 
+/// The product's frame onset weighting of b ([`FrameOnset`]): the settings of
+/// [`FrameOnset::OFF`], switched on.
+pub const DEFAULT_FRAME_ONSET: FrameOnset = FrameOnset {
+    enabled: true,
+    ..FrameOnset::OFF
+};
+
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or
 /// [`LocatorConfig::thesis`] (the published method) and change fields.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -209,8 +216,9 @@ impl LocatorConfig {
 
 impl Default for LocatorConfig {
     /// The product configuration: the thesis method plus the measured improvements (README,
-    /// "Accuracy"): onset weighting of peaks, a variance floor and a tighter scale for b, and the
-    /// Bayesian grid tracker with velocity drift instead of the one-pole curve filter.
+    /// "Accuracy"): onset weighting of peaks, a variance floor and a tighter scale for b, the
+    /// Bayesian grid tracker with velocity drift instead of the one-pole curve filter, the
+    /// noise-floor gate and the frame onset weighting of b, and active-ratio features.
     fn default() -> Self {
         let mut c = Self::thesis();
         c.reliability.v_floor = 0.0006;
@@ -218,6 +226,8 @@ impl Default for LocatorConfig {
         c.direct_sound.onset_exponent = 1.0;
         c.tracking = Tracking::Grid(DEFAULT_GRID_TRACKER);
         c.noise_gate = DEFAULT_NOISE_GATE;
+        c.features = FeatureKind::Active;
+        c.frame_onset = DEFAULT_FRAME_ONSET;
         c
     }
 }

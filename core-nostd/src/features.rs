@@ -1,5 +1,6 @@
 //! Features of a picked bin for the three cardioids: the thesis's magnitude ratios (eq. 5.7)
-//! Y_c = |X_c| / |X_0|, or the active ratios Y_c = Re(X_c / X_0) (not in the thesis).
+//! Y_c = |X_c| / |X_0|, or the active ratios Y_c = Re(X_c / X_0) (not in the thesis; the product
+//! configuration's choice).
 //!
 //! For one plane wave both equal the reference 0.5 + 0.5·cos(φ − φ_c) of the ideal model. They differ
 //! in what noise and reflections do to them:

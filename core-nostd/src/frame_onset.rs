@@ -12,6 +12,12 @@
 //!
 //! The rise is r = P / max(P₋₁ … P₋ₙ) over the last n frame powers; the weight ramps linearly in r
 //! from [`FrameOnset::floor`] at [`FrameOnset::low_db`] to 1 at [`FrameOnset::high_db`].
+//!
+//! The product configuration switches it on ([`crate::config::DEFAULT_FRAME_ONSET`]); the thesis
+//! preset leaves it off. The weighted b drives the grid tracker's likelihood, pause detection and
+//! running mean curve, but not its velocity estimate: the talker's motion is learned from every
+//! reliable frame, decaying ones included (with the weight there too, the eval folder's moving
+//! talker got 3.14° MAE instead of 1.76°).
 
 use crate::power_ramp::PowerRamp;
 

@@ -89,8 +89,6 @@ pub struct GridTrackerState {
     previous: f32,
     /// Drift applied by the last prediction, degrees per frame.
     drift: f32,
-    /// Reliability b of the last update.
-    last_b: f32,
     /// Consecutive frames with b = 0 up to the last update.
     quiet: u32,
     /// Reliable frames left that use the onset jump probability.
@@ -116,7 +114,6 @@ impl GridTrackerState {
             velocity: 0.0,
             previous: f32::NAN,
             drift: 0.0,
-            last_b: 0.0,
             quiet: 0,
             onset_left: 0,
             running: RunningCurve::new(),
@@ -223,7 +220,7 @@ impl GridTracker {
             2.0 * self.kernel_side(spacing_deg)
         };
         state.drift = v;
-        state.last_b = if b.is_finite() {
+        let b_unit = if b.is_finite() {
             b.clamp(0.0, 1.0)
         } else {
             0.0
@@ -236,7 +233,7 @@ impl GridTracker {
         if self.refine_gain > 0.0 {
             state
                 .running
-                .update(&curve[..q], shift, self.refine_gain * state.last_b);
+                .update(&curve[..q], shift, self.refine_gain * b_unit);
         }
         let second = (var + shift * shift).min(1.0);
         let up = (0.5 * (second + shift)).max(0.0);
@@ -326,14 +323,22 @@ impl GridTracker {
         Some((offset_azimuth(&azimuths_deg[..q], p, d), p))
     }
 
-    /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate.
-    pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32) {
+    /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate, with the
+    /// reliability `b` the velocity learns from (usually the b of [`GridTracker::update`]; the
+    /// [`crate::Locator`] leaves the frame onset weight out of it, see
+    /// [`crate::frame_onset`]). NaN counts as 0.
+    pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32, b: f32) {
+        let b = if b.is_finite() {
+            b.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
             let innovation = crate::angle::wrap_deg(azimuth_deg - state.previous - state.drift);
             if innovation.abs() <= MAX_MOTION_STEP_DEG {
                 let leak = 1.0 - self.velocity_pole.clamp(0.0, 1.0);
-                let v = state.velocity
-                    + state.last_b * (self.velocity_gain * innovation - leak * state.velocity);
+                let v =
+                    state.velocity + b * (self.velocity_gain * innovation - leak * state.velocity);
                 state.velocity = if v.is_finite() {
                     v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG)
                 } else {
@@ -347,7 +352,7 @@ impl GridTracker {
             let d = crate::angle::wrap_deg(azimuth_deg - state.previous);
             if d.abs() <= MAX_MOTION_STEP_DEG {
                 let leak = 1.0 - self.velocity_pole.clamp(0.0, 1.0);
-                state.velocity += leak * state.last_b * (d - state.velocity);
+                state.velocity += leak * b * (d - state.velocity);
             }
         }
         state.previous = azimuth_deg;
@@ -532,19 +537,19 @@ mod tests {
         // Estimates that move by 1° per frame while b = 0 (a pause, or noise before the talker).
         for i in 0..20 {
             t.update(&mut s, &curve, 0.0, 5.0);
-            t.observe_estimate(&mut s, i as f32);
+            t.observe_estimate(&mut s, i as f32, 0.0);
         }
         assert_eq!(s.velocity(), 0.0);
         for i in 20..40 {
             t.update(&mut s, &curve, 1.0, 5.0);
-            t.observe_estimate(&mut s, i as f32);
+            t.observe_estimate(&mut s, i as f32, 1.0);
         }
         assert!((s.velocity() - 1.0).abs() < 0.15, "{}", s.velocity());
         // A pause keeps what was learned.
         let v = s.velocity();
         for i in 40..60 {
             t.update(&mut s, &curve, 0.0, 5.0);
-            t.observe_estimate(&mut s, 40.0 + (i - 40) as f32 * 3.0);
+            t.observe_estimate(&mut s, 40.0 + (i - 40) as f32 * 3.0, 0.0);
         }
         assert_eq!(s.velocity(), v);
     }
@@ -621,7 +626,7 @@ mod tests {
                 });
                 let post = t.update(&mut s, &curve, 0.3, 5.0);
                 let est = argmax(post) as f32 * 5.0;
-                t.observe_estimate(&mut s, est);
+                t.observe_estimate(&mut s, est, 0.3);
                 if f > n / 2 {
                     err += crate::angle::wrap_deg(est - pos * 5.0);
                 }

@@ -396,12 +396,12 @@ impl<'t> Locator<'t> {
                 } else {
                     gate
                 };
-                let gate = if self.config.frame_onset.enabled {
-                    gate * self.frame_onset.update(frame_power)
+                let onset = if self.config.frame_onset.enabled {
+                    self.frame_onset.update(frame_power)
                 } else {
-                    gate
+                    1.0
                 };
-                self.similarity_frame(gate, &mut flags)
+                self.similarity_frame(gate, onset, &mut flags)
             }
             Method::Fdiv | Method::Tdiv => {
                 let iv = self.intensity_frame(usable);
@@ -475,8 +475,11 @@ impl<'t> Locator<'t> {
         iv
     }
 
-    /// Similarity method on the current frame; returns (azimuth, raw azimuth, b).
-    fn similarity_frame(&mut self, gate: f32, flags: &mut Flags) -> (f32, f32, f32) {
+    /// Similarity method on the current frame; returns (azimuth, raw azimuth, b). `onset` is the
+    /// frame onset weight: it scales b everywhere except in the tracker's velocity estimate, which
+    /// learns the talker's motion from every reliable frame (weighted there too, a moving talker
+    /// was followed worse: eval MAE 3.14° instead of 1.76° with active features).
+    fn similarity_frame(&mut self, gate: f32, onset: f32, flags: &mut Flags) -> (f32, f32, f32) {
         let q = self.table.num_azimuths();
         let fs = self.decimator.output_rate() as f32;
         windowed_spectrum(
@@ -582,6 +585,10 @@ impl<'t> Locator<'t> {
                     );
             }
         }
+        let motion_b = b;
+        if self.config.frame_onset.enabled {
+            b *= onset;
+        }
         self.diagnostics = FrameDiagnostics {
             curve_variance: variance,
             num_peaks: n_used,
@@ -629,7 +636,7 @@ impl<'t> Locator<'t> {
         // Only tracked estimates teach the tracker its velocity: before the first reliable frame the
         // raw azimuths of noise would.
         if let (Tracking::Grid(t), true) = (self.config.tracking, self.have_history) {
-            t.observe_estimate(&mut self.tracker, azimuth);
+            t.observe_estimate(&mut self.tracker, azimuth, motion_b);
         }
         self.last_azimuth = azimuth;
         (azimuth, raw.unwrap_or(azimuth), b)
@@ -729,10 +736,11 @@ mod tests {
                 "case {i}"
             );
         }
-        // A switched-off gate is not checked.
+        // Switched-off gate and frame onset settings are not checked.
         let mut off = LocatorConfig::default();
         off.noise_gate.enabled = false;
         off.noise_gate.full_db = f32::NAN;
+        off.frame_onset.enabled = false;
         off.frame_onset.history = 0;
         assert!(Locator::new(off, table, 48_000).is_ok());
     }

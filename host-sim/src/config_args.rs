@@ -60,7 +60,8 @@ pub enum OnOff {
 pub enum FeaturesArg {
     /// |X_c| / |X_0| (the thesis).
     Magnitude,
-    /// Re(X_c / X_0): the active ratio (noise mixes linearly toward ½; reflections average out).
+    /// Re(X_c / X_0): the active ratio (noise mixes linearly toward ½; reflections average out);
+    /// the default preset's choice.
     Active,
 }
 
@@ -97,7 +98,7 @@ pub struct ConfigArgs {
     /// Mean-free features.
     #[arg(long)]
     pub mean_free: bool,
-    /// Peak features: magnitude ratios (the thesis) or active ratios.
+    /// Peak features: magnitude ratios (the thesis preset) or active ratios (the default preset).
     #[arg(long, value_enum)]
     pub features: Option<FeaturesArg>,
     /// Switch reliability weighting off (b = 1 for every frame).
@@ -173,7 +174,7 @@ pub struct ConfigArgs {
     /// Noise-floor gate: frame power above the floor (dB) where b passes fully.
     #[arg(long)]
     pub gate_full: Option<f32>,
-    /// Frame onset weighting of the reliability b: on or off.
+    /// Frame onset weighting of the reliability b: on (the default preset) or off (the thesis).
     #[arg(long, value_enum)]
     pub frame_onset: Option<OnOff>,
     /// Frame onset: frames of power history the rise is measured against.
