@@ -527,6 +527,35 @@ mod tests {
     }
 
     #[test]
+    fn velocity_learns_from_the_b_it_is_given_not_the_update_b() {
+        let t = GridTracker {
+            velocity_pole: 0.9,
+            ..base()
+        };
+        let curve = peaked(72, 10);
+        // The same updates (b = 0.2) and estimates moving by 1° per frame; only the b handed to
+        // `observe_estimate` differs (as when the frame onset weight is left out of it).
+        let learn = |motion_b: f32| {
+            let mut s = GridTrackerState::new();
+            for i in 0..10 {
+                t.update(&mut s, &curve, 0.2, 5.0);
+                t.observe_estimate(&mut s, i as f32, motion_b);
+            }
+            s.velocity()
+        };
+        let (weak, full, none) = (learn(0.2), learn(1.0), learn(0.0));
+        assert_eq!(none, 0.0);
+        assert!(
+            weak > 0.0 && full > 2.0 * weak,
+            "b 0.2: {weak}, b 1: {full}"
+        );
+        // With b = 1 the pole-0.9 average of a 1°/frame change after 9 steps: 1 − 0.9⁹.
+        assert!((full - (1.0 - 0.9f32.powi(9))).abs() < 1e-4, "{full}");
+        // NaN counts as 0.
+        assert_eq!(learn(f32::NAN), 0.0);
+    }
+
+    #[test]
     fn velocity_is_learned_from_reliable_frames_only() {
         let t = GridTracker {
             velocity_pole: 0.9,
