@@ -55,9 +55,11 @@ fn thesis_preset_switches_and_baselines_also_localize() {
         &["--method", "fdiv"],
         &["--method", "tdiv"],
         &["--grid", "15"],
-        &["--features", "active"],
+        &["--features", "magnitude"],
+        &["--frame-onset", "off"],
+        &["--features", "magnitude", "--frame-onset", "off"],
         &["--preset", "thesis", "--features", "active"],
-        &["--frame-onset", "on", "--frame-onset-floor", "0.5"],
+        &["--preset", "thesis", "--frame-onset", "on"],
     ] {
         let rows = locate(&wav, flags);
         let err = errors_after(&rows, 1.5, 60.0);
