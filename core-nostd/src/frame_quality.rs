@@ -14,7 +14,7 @@
 //! bit-identical to the plain reliability weighting; [`FrameQuality::is_default`] lets it skip this
 //! module entirely.
 
-use crate::reliability::Reliability;
+use crate::reliability::{unit_reliability, Reliability};
 
 /// Which quality measures are multiplied into b̃ (eq. 5.36). At least one should be set; with none,
 /// b̃ = 1 (every frame trusted, like `QMoff`).
@@ -111,12 +111,7 @@ impl FrameQuality {
             if m.zcr {
                 q *= voice_activity(zero_crossing_rate(omni, rate_hz), self.zcr_threshold_hz);
             }
-            let b = reliability.speed * q;
-            if b.is_finite() {
-                b.clamp(0.0, 1.0)
-            } else {
-                0.0
-            }
+            unit_reliability(reliability.speed * q)
         } else {
             1.0
         };

@@ -14,6 +14,7 @@
 //! model diffuses instead of averaging old curves, a moving talker is followed without lag.
 
 use crate::interpolation::{argmax_parabolic_mapped, offset_azimuth};
+use crate::reliability::unit_reliability;
 use crate::running_curve::RunningCurve;
 use crate::MAX_AZIMUTHS;
 
@@ -220,11 +221,7 @@ impl GridTracker {
             2.0 * self.kernel_side(spacing_deg)
         };
         state.drift = v;
-        let b_unit = if b.is_finite() {
-            b.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let b_unit = unit_reliability(b);
         let shift = if spacing_deg > 0.0 {
             (v / spacing_deg).clamp(-0.5, 0.5)
         } else {
@@ -328,11 +325,7 @@ impl GridTracker {
     /// [`crate::Locator`] leaves the frame onset weight out of it, see
     /// [`crate::frame_onset`]). NaN counts as 0.
     pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32, b: f32) {
-        let b = if b.is_finite() {
-            b.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let b = unit_reliability(b);
         if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
             let innovation = crate::angle::wrap_deg(azimuth_deg - state.previous - state.drift);
             if innovation.abs() <= MAX_MOTION_STEP_DEG {

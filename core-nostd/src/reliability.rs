@@ -35,12 +35,18 @@ impl Reliability {
         } else {
             libm::powf(r, self.exponent)
         };
-        let b = self.speed * scaled;
-        if b.is_finite() {
-            b.clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
+        unit_reliability(self.speed * scaled)
+    }
+}
+
+/// A reliability b limited to [0, 1]; NaN and ±∞ count as 0 (no evidence).
+#[must_use]
+#[inline]
+pub fn unit_reliability(b: f32) -> f32 {
+    if b.is_finite() {
+        b.clamp(0.0, 1.0)
+    } else {
+        0.0
     }
 }
 
