@@ -95,6 +95,15 @@ pub struct ConfigArgs {
     /// Noisy reference features: mixing rule.
     #[arg(long, value_enum)]
     pub noise: Option<NoiseArg>,
+    /// Lowest SNR of the noisy reference sets, dB.
+    #[arg(long)]
+    pub snr_from: Option<f32>,
+    /// Highest SNR of the noisy reference sets, dB.
+    #[arg(long)]
+    pub snr_to: Option<f32>,
+    /// SNR step between the noisy reference sets, dB.
+    #[arg(long)]
+    pub snr_step: Option<f32>,
     /// Mean-free features.
     #[arg(long)]
     pub mean_free: bool,
@@ -239,6 +248,15 @@ impl ConfigArgs {
                 NoiseArg::Magnitude => NoiseMixing::Magnitude,
                 NoiseArg::Power => NoiseMixing::Power,
             };
+        }
+        if let Some(v) = self.snr_from {
+            c.snr_from_db = v;
+        }
+        if let Some(v) = self.snr_to {
+            c.snr_to_db = v;
+        }
+        if let Some(v) = self.snr_step {
+            c.snr_step_db = v;
         }
         c.mean_free |= self.mean_free;
         if let Some(f) = self.features {

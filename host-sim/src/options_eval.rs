@@ -252,6 +252,11 @@ mod tests {
         assert_eq!(c.combination, Combination::PeakCircularMedian);
         assert_eq!(c.smoothing, Smoothing::Cartesian);
         assert!(c.fdiv_spread.enabled() && c.fdiv_spread.binary);
+        let (c, _) = variant_config(&[], "--snr-from=-10 --snr-to 30 --snr-step 5").unwrap();
+        assert_eq!(
+            (c.snr_from_db, c.snr_to_db, c.snr_step_db),
+            (-10.0, 30.0, 5.0)
+        );
         assert!(variant_config(&[], "--quality loudness").is_err());
         assert!(variant_config(&[], "--fdiv-std -1").is_err());
         for (_, extra) in VARIANTS {

@@ -141,6 +141,12 @@ fn bad_flags() {
     let w = wav.to_string_lossy().into_owned();
     let m = err_of(&["locate", &w, "--peaks", "0"]);
     assert!(m.contains("num_peaks"), "{m}");
+    let m = err_of(&["locate", &w, "--snr-step=0"]);
+    assert!(m.contains("SNR sets"), "{m}");
+    let m = err_of(&["locate", &w, "--snr-from=50"]);
+    assert!(m.contains("SNR sets"), "{m}");
+    let m = err_of(&["locate", &w, "--snr-step=0.5"]);
+    assert!(m.contains("more than 16 sets"), "{m}");
     let m = err_of(&["locate", &w, "--band-hi", "9000"]);
     assert!(m.contains("band"), "{m}");
     let m = err_of(&["locate", &w, "--gate-open", "3", "--gate-full", "2"]);
