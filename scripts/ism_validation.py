@@ -99,7 +99,8 @@ def wrap180(a):
     return (a + 180.0) % 360.0 - 180.0
 
 
-def scene(args, extra):
+def scene(extra):
+    """Runs `host-sim scene` with `extra`."""
     subprocess.run([HOST_SIM, "scene"] + extra, check=True, capture_output=True)
 
 
@@ -130,7 +131,7 @@ def main():
         if s < args.static:
             snr = 0 if s % 2 == 0 else 10
             name = os.path.join(args.out, f"static{s:03d}_snr{snr:+03d}_az{az:05.1f}.wav")
-            scene(args, ["--out", name, "--source", speech[s % len(speech)]]
+            scene(["--out", name, "--source", speech[s % len(speech)]]
                   + ["--azimuth", f"{az:.2f}", "--snr", str(snr), "--set", f"room_snr{snr:+03d}"]
                   + common)
         else:
@@ -141,7 +142,7 @@ def main():
                     azs.append(c)
             track = ",".join(f"{2 * i}:{wrap180(a):.1f}" for i, a in enumerate(azs))
             name = os.path.join(args.out, f"jump{s - args.static:03d}.wav")
-            scene(args, ["--out", name, "--synth", "12", "--track", track, "--snr", "3"]
+            scene(["--out", name, "--synth", "12", "--track", track, "--snr", "3"]
                   + ["--set", "jump"] + common)
         print(name, flush=True)
     os.remove(rir)
