@@ -12,6 +12,7 @@ use crate::input_guard::InputGuard;
 use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::PeakPicker;
+use crate::refine_curve::RefineCurve;
 use crate::reliability::Reliability;
 use crate::similarity::{CurveBuilder, SimilarityMeasure};
 use crate::{FRAME_LEN, NUM_BINS};
@@ -53,6 +54,7 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     onset_likelihood_floor: 0.05,
     refine_gain: 0.1,
     refine_limit: 1.0,
+    refine_curve: RefineCurve::Distance1_5,
 };
 
 /// The product's noise-floor gate ([`NoiseGate`]).

@@ -39,7 +39,7 @@ pub fn sqrtf2(x: [f32; 2]) -> [f32; 2] {
 /// compare, a flag transfer and a conditional move. Equal to `if x > 0.0 { x } else { 0.0 }` for every
 /// `x` except a positive NaN (kept).
 #[inline(always)]
-fn clamp_nonneg(x: f32) -> f32 {
+pub(crate) fn clamp_nonneg(x: f32) -> f32 {
     let b = x.to_bits();
     // Sign bit set: the arithmetic shift gives all ones, so the mask clears every bit (→ +0).
     f32::from_bits(b & !(((b as i32) >> 31) as u32))

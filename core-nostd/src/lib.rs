@@ -67,6 +67,7 @@ pub mod noisy_reference;
 pub mod peak_picker;
 pub mod power_ramp;
 pub mod reference_table;
+pub mod refine_curve;
 pub mod reliability;
 pub mod running_curve;
 pub mod similarity;

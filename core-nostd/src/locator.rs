@@ -30,7 +30,7 @@ use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance, CurveFilter};
-use crate::similarity::{CurveBuilder, PeakFeature, RowCache};
+use crate::similarity::{CurveBuilder, DistanceSum, PeakFeature, RowCache};
 use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
@@ -69,6 +69,9 @@ pub struct Locator<'t> {
     omni_power: [f32; NUM_BINS],
     peaks: Peaks,
     curve: [f32; MAX_AZIMUTHS],
+    /// The last frame's negated mean distance curve −Σ w·d^p / Σ w ([`RefineCurve`]), when the grid
+    /// tracker refines its estimate with one.
+    distance: [f32; MAX_AZIMUTHS],
     filter: CurveFilter,
     tracker: GridTrackerState,
     onset: OnsetState,
@@ -153,6 +156,7 @@ impl<'t> Locator<'t> {
             omni_power: [0.0; NUM_BINS],
             peaks: Peaks::new(),
             curve: [0.0; MAX_AZIMUTHS],
+            distance: [0.0; MAX_AZIMUTHS],
             filter: CurveFilter::new(),
             tracker: GridTrackerState::new(),
             onset: OnsetState::new(),
@@ -189,6 +193,7 @@ impl<'t> Locator<'t> {
         self.omni_power.fill(0.0);
         self.peaks = Peaks::new();
         self.curve.fill(0.0);
+        self.distance.fill(0.0);
         self.filter = CurveFilter::new();
         self.tracker = GridTrackerState::new();
         self.onset = OnsetState::new();
@@ -504,6 +509,15 @@ impl<'t> Locator<'t> {
         let ds: DirectSound = self.config.direct_sound;
         let curve = &mut self.curve[..q];
         curve.fill(0.0);
+        // The grid tracker's refinement curve, when it is a distance curve.
+        let power = match self.config.tracking {
+            Tracking::Grid(t) if t.refine_gain > 0.0 => t.refine_curve.power(),
+            _ => None,
+        };
+        let distance = &mut self.distance[..q];
+        if power.is_some() {
+            distance.fill(0.0);
+        }
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
         let mut used = [PeakFeature {
@@ -550,8 +564,17 @@ impl<'t> Locator<'t> {
             weight_sum += w;
             n_used += 1;
         }
-        self.curves
-            .accumulate_peaks(&mut self.row_cache, &self.table, &used[..n_used], curve);
+        let sums = power.map(|power| DistanceSum {
+            power,
+            curve: &mut *distance,
+        });
+        self.curves.accumulate_peaks_with_distance(
+            &mut self.row_cache,
+            &self.table,
+            &used[..n_used],
+            curve,
+            sums,
+        );
         if ds.onset_exponent > 0.0 {
             let (lo, hi) = self.picker.band();
             self.onset.update(ds.onset_pole, &self.omni_power, lo, hi);
@@ -562,12 +585,20 @@ impl<'t> Locator<'t> {
         if n_used == 0 || !(weight_sum > 0.0) {
             flags.insert(Flags::NO_PEAKS);
             curve.fill(0.0);
+            distance.fill(0.0);
             b = 0.0;
             variance = 0.0;
         } else {
             let inv = 1.0 / weight_sum;
             for c in curve.iter_mut() {
                 *c *= inv;
+            }
+            if power.is_some() {
+                // Negated, so that like the similarity curve it peaks at the talker.
+                let neg = -inv;
+                for v in distance.iter_mut() {
+                    *v *= neg;
+                }
             }
             variance = curve_variance(curve);
             b *= self.config.reliability.coefficient(variance);
@@ -614,7 +645,12 @@ impl<'t> Locator<'t> {
             }
             Tracking::Grid(t) => {
                 let spacing = crate::angle::wrap_deg_360(azimuths[1] - azimuths[0]);
-                t.update(&mut self.tracker, &self.curve[..q], b, spacing);
+                let refine = if power.is_some() {
+                    &self.distance[..q]
+                } else {
+                    &self.curve[..q]
+                };
+                t.update_refined(&mut self.tracker, &self.curve[..q], refine, b, spacing);
                 t.estimate(&mut self.tracker, &azimuths[..q])
             }
         };

@@ -1,9 +1,10 @@
 //! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
-use crate::fast_math::{sqrt_nonneg, sqrt_nonneg2, sqrtf};
+use crate::fast_math::{clamp_nonneg, sqrt_nonneg, sqrt_nonneg2, sqrtf};
 use crate::features::FeatureKind;
 use crate::noisy_reference::{nearest_in, NoiseMixing, NoisyReferences, LUT_LEN};
+use crate::refine_curve::DistancePower;
 
 /// Bucket scale of the α tables of [`NoisyReferences`].
 const LUT_SCALE: f32 = LUT_LEN as f32;
@@ -123,6 +124,16 @@ pub struct PeakFeature {
     pub weight: f32,
 }
 
+/// Where [`CurveBuilder::accumulate_peaks_with_distance`] adds the peaks' weighted distance powers
+/// Σ w·d^p (for [`crate::refine_curve::RefineCurve`]) next to the similarity curve.
+#[derive(Debug)]
+pub struct DistanceSum<'a> {
+    /// The power p of the distance.
+    pub power: DistancePower,
+    /// Per azimuth: Σ w·d^p (added to, like the similarity curve).
+    pub curve: &'a mut [f32],
+}
+
 /// How one peak's similarity row is computed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CurveBuilder {
@@ -165,6 +176,21 @@ impl CurveBuilder {
         weight: f32,
         curve: &mut [f32],
     ) {
+        self.accumulate_into(table, fi, y, weight, curve, None);
+    }
+
+    /// [`CurveBuilder::accumulate`], and with `distance` also `weight · d^p` into its curve, d the
+    /// distance to the nearest reference (the fast paths' minimum; from the similarity s as 1/s − 1
+    /// for the Euclidean and L_p measures, 1 − s for the cosine).
+    pub fn accumulate_into(
+        &self,
+        table: &ReferenceTable<'_>,
+        fi: usize,
+        y: Feature,
+        weight: f32,
+        curve: &mut [f32],
+        mut distance: Option<DistanceSum<'_>>,
+    ) {
         let row = table.row(fi);
         let noise_mag = self.noise_mag(table, fi);
         let noise_pow = table.noise_power(fi);
@@ -177,17 +203,19 @@ impl CurveBuilder {
             let alphas = self.noisy.alphas();
             let n = alphas.len();
             if self.noisy.nearest_ok() {
-                for (c, r) in curve.iter_mut().zip(row) {
+                for (q, (c, r)) in curve.iter_mut().zip(row).enumerate() {
                     let r = minus(*r, noise_mag);
                     let [m0, m1, m2, rr, sc] = row_constants(r);
                     let m2dr = d[0] * m0 + d[1] * m1 + d[2] * m2;
                     let a = alphas[self.noisy.nearest(m2dr * sc)];
                     let best = dd + a * (a * rr + m2dr);
-                    *c += weight / (1.0 + sqrt_nonneg(best));
+                    let root = sqrt_nonneg(best);
+                    *c += weight / (1.0 + root);
+                    add_distance(&mut distance, q, weight, clamp_nonneg(best), root);
                 }
                 return;
             }
-            for (c, r) in curve.iter_mut().zip(row) {
+            for (q, (c, r)) in curve.iter_mut().zip(row).enumerate() {
                 let r = minus(*r, noise_mag);
                 let dr = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
                 let rr = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
@@ -210,13 +238,27 @@ impl CurveBuilder {
                 };
                 // `if` rather than `f32::max`, which is a library call on the Cortex-M4F.
                 let best = if best > 0.0 { best } else { 0.0 };
-                *c += weight / (1.0 + sqrtf(best));
+                let root = sqrtf(best);
+                *c += weight / (1.0 + root);
+                add_distance(&mut distance, q, weight, best, root);
             }
             return;
         }
         let y = if self.mean_free { mean_free(y) } else { y };
-        for (c, r) in curve.iter_mut().zip(row) {
-            *c += weight * self.max_similarity(y, *r, noise_mag, noise_pow);
+        for (q, (c, r)) in curve.iter_mut().zip(row).enumerate() {
+            let sim = self.max_similarity(y, *r, noise_mag, noise_pow);
+            *c += weight * sim;
+            if let Some(ds) = distance.as_mut() {
+                let d = if self.measure == SimilarityMeasure::Cosine {
+                    clamp_nonneg(1.0 - sim)
+                } else {
+                    crate::refine_curve::distance_of_similarity(sim)
+                };
+                let p = ds.power.of(d * d, d);
+                if let Some(v) = ds.curve.get_mut(q) {
+                    *v += weight * p;
+                }
+            }
         }
     }
 
@@ -239,7 +281,7 @@ impl CurveBuilder {
         };
         self.fill_cache(cache, table, fi);
         let noise_mag = self.noise_mag(table, fi);
-        self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q]);
+        self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q], None);
     }
 
     /// [`CurveBuilder::accumulate_cached`] for each peak in order, with two consecutive peaks of the
@@ -253,9 +295,28 @@ impl CurveBuilder {
         peaks: &[PeakFeature],
         curve: &mut [f32],
     ) {
+        self.accumulate_peaks_with_distance(cache, table, peaks, curve, None);
+    }
+
+    /// [`CurveBuilder::accumulate_peaks`], and with `distance` also Σ w·d^p per azimuth into its
+    /// curve (see [`CurveBuilder::accumulate_into`]), in the same pass: the distance of each peak and
+    /// azimuth is computed once for both. The similarity curve is bit-identical to
+    /// [`CurveBuilder::accumulate_peaks`].
+    pub fn accumulate_peaks_with_distance(
+        &self,
+        cache: &mut RowCache,
+        table: &ReferenceTable<'_>,
+        peaks: &[PeakFeature],
+        curve: &mut [f32],
+        mut distance: Option<DistanceSum<'_>>,
+    ) {
         let Some(q) = self.cached_len(table, curve) else {
             for p in peaks {
-                self.accumulate(table, p.fi, p.y, p.weight, curve);
+                let ds = distance.as_mut().map(|d| DistanceSum {
+                    power: d.power,
+                    curve: &mut *d.curve,
+                });
+                self.accumulate_into(table, p.fi, p.y, p.weight, curve, ds);
             }
             return;
         };
@@ -265,11 +326,15 @@ impl CurveBuilder {
             self.fill_cache(cache, table, p.fi);
             let noise_mag = self.noise_mag(table, p.fi);
             let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
+            let ds = distance.as_mut().map(|d| DistanceSum {
+                power: d.power,
+                curve: &mut *d.curve,
+            });
             if run == 2 {
                 let (p2, ws) = (rest[1], [p.weight, rest[1].weight]);
-                self.accumulate_group(cache, noise_mag, [p.y, p2.y], ws, curve);
+                self.accumulate_group(cache, noise_mag, [p.y, p2.y], ws, curve, ds);
             } else {
-                self.accumulate_group(cache, noise_mag, [p.y], [p.weight], curve);
+                self.accumulate_group(cache, noise_mag, [p.y], [p.weight], curve, ds);
             }
             rest = &rest[run..];
         }
@@ -322,6 +387,46 @@ impl CurveBuilder {
         ys: [Feature; G],
         weights: [f32; G],
         curve: &mut [f32],
+        distance: Option<DistanceSum<'_>>,
+    ) {
+        match distance {
+            None => self.group_loop::<G, false>(
+                cache,
+                noise_mag,
+                ys,
+                weights,
+                curve,
+                &mut [],
+                DistancePower::One,
+            ),
+            Some(ds) => {
+                let n = curve.len().min(ds.curve.len());
+                self.group_loop::<G, true>(
+                    cache,
+                    noise_mag,
+                    ys,
+                    weights,
+                    &mut curve[..n],
+                    &mut ds.curve[..n],
+                    ds.power,
+                )
+            }
+        }
+    }
+
+    /// The loop of [`CurveBuilder::accumulate_group`]; with `D` also Σ w·d^p into `dist` (as long as
+    /// `curve`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn group_loop<const G: usize, const D: bool>(
+        &self,
+        cache: &RowCache,
+        noise_mag: Feature,
+        ys: [Feature; G],
+        weights: [f32; G],
+        curve: &mut [f32],
+        dist: &mut [f32],
+        power: DistancePower,
     ) {
         let d: [Feature; G] = ys.map(|y| minus(y, noise_mag));
         let dd: [f32; G] = core::array::from_fn(|g| {
@@ -339,15 +444,19 @@ impl CurveBuilder {
         #[cfg(target_arch = "x86_64")]
         let (curve, first) = {
             let n = self.noisy.alphas().len();
-            let done = sse::group(&cache.soa, &d, &dd, &weights, &alphas, mids, n, curve);
+            let done = sse::group::<G, D>(
+                &cache.soa, &d, &dd, &weights, &alphas, mids, n, curve, dist, power,
+            );
             (&mut curve[done..], done)
         };
+        #[cfg(target_arch = "x86_64")]
+        let dist = if D { &mut dist[first..] } else { dist };
         #[cfg(not(target_arch = "x86_64"))]
         let entries = cache.rows.iter().copied();
         #[cfg(target_arch = "x86_64")]
         let entries =
             (first..ROW_CACHE_LEN).map(|q| core::array::from_fn::<f32, 5, _>(|k| cache.soa[k][q]));
-        for (c, e) in curve.iter_mut().zip(entries) {
+        for (q, (c, e)) in curve.iter_mut().zip(entries).enumerate() {
             let [m0, m1, m2, rr, sc] = e;
             let best: [f32; G] = core::array::from_fn(|g| {
                 let d = d[g];
@@ -366,6 +475,11 @@ impl CurveBuilder {
                 };
                 for (h, r) in (g..G.min(g + 2)).zip(root) {
                     acc += weights[h] / (1.0 + r);
+                    if D {
+                        if let Some(v) = dist.get_mut(q) {
+                            *v += weights[h] * power.of(clamp_nonneg(best[h]), r);
+                        }
+                    }
                 }
             }
             *c = acc;
@@ -393,6 +507,22 @@ impl CurveBuilder {
             }
         }
         best
+    }
+}
+
+/// Adds `weight · d^p` at azimuth `q` of the distance sum, if there is one (d² = `squared`, d = `root`).
+#[inline(always)]
+fn add_distance(
+    distance: &mut Option<DistanceSum<'_>>,
+    q: usize,
+    weight: f32,
+    squared: f32,
+    root: f32,
+) {
+    if let Some(ds) = distance.as_mut() {
+        if let Some(v) = ds.curve.get_mut(q) {
+            *v += weight * ds.power.of(squared, root);
+        }
     }
 }
 
@@ -430,7 +560,7 @@ fn row_constants(r: Feature) -> [f32; 5] {
 /// NaN (all bits compare ≥, `nearest_in` gives 1) is mapped to α_1 explicitly.
 #[cfg(target_arch = "x86_64")]
 mod sse {
-    use super::{Feature, ROW_CACHE_LEN};
+    use super::{DistancePower, Feature, ROW_CACHE_LEN};
     use crate::MAX_SNR_SETS;
     use core::arch::x86_64::{
         __m128, __m128i, _mm_add_ps, _mm_and_ps, _mm_andnot_ps, _mm_andnot_si128, _mm_castps_si128,
@@ -449,7 +579,7 @@ mod sse {
     /// done.
     #[allow(unsafe_code, clippy::too_many_arguments)]
     #[inline(always)]
-    pub(super) fn group<const G: usize>(
+    pub(super) fn group<const G: usize, const D: bool>(
         soa: &[[f32; ROW_CACHE_LEN]; 5],
         d: &[Feature; G],
         dd: &[f32; G],
@@ -458,8 +588,11 @@ mod sse {
         mids: &[i32; MAX_SNR_SETS],
         n: usize,
         curve: &mut [f32],
+        dist: &mut [f32],
+        power: DistancePower,
     ) -> usize {
         let len = curve.len().min(ROW_CACHE_LEN) / 4 * 4;
+        let len = if D { len.min(dist.len() / 4 * 4) } else { len };
         let n = n.min(MAX_SNR_SETS);
         // SAFETY: SSE2 is enabled on every x86_64 target, so the intrinsics exist; all of them work
         // on registers only, except `_mm_loadu_ps`/`_mm_storeu_ps`, which read or write four f32
@@ -480,6 +613,11 @@ mod sse {
                 let ld = |k: usize| -> __m128 { _mm_loadu_ps(soa[k][i..i + 4].as_ptr()) };
                 let (m0, m1, m2, rr, sc) = (ld(0), ld(1), ld(2), ld(3), ld(4));
                 let mut acc = _mm_loadu_ps(curve[i..i + 4].as_ptr());
+                let mut dacc = if D {
+                    _mm_loadu_ps(dist[i..i + 4].as_ptr())
+                } else {
+                    _mm_setzero_ps()
+                };
                 for g in 0..G {
                     let [d0, d1, d2] = d[g];
                     let m2dr = _mm_add_ps(
@@ -510,8 +648,20 @@ mod sse {
                         acc,
                         _mm_div_ps(_mm_set1_ps(weights[g]), _mm_add_ps(one, root)),
                     );
+                    if D {
+                        // `DistancePower::of` in lanes.
+                        let p = match power {
+                            DistancePower::One => root,
+                            DistancePower::ThreeHalves => _mm_mul_ps(root, _mm_sqrt_ps(root)),
+                            DistancePower::Two => best,
+                        };
+                        dacc = _mm_add_ps(dacc, _mm_mul_ps(_mm_set1_ps(weights[g]), p));
+                    }
                 }
                 _mm_storeu_ps(curve[i..i + 4].as_mut_ptr(), acc);
+                if D {
+                    _mm_storeu_ps(dist[i..i + 4].as_mut_ptr(), dacc);
+                }
                 i += 4;
             }
         }
@@ -625,6 +775,115 @@ mod tests {
             }
             for (x, y) in batch.iter().zip(direct) {
                 assert!((x - y).abs() < 1e-5, "{n} peaks: {x} vs {y}");
+            }
+        }
+    }
+
+    /// The distance sums of every power: the batched, cached pass (on x86_64 the SSE2 kernel plus
+    /// the scalar tail) equals one uncached scalar `accumulate_into` per peak bit for bit, leaves the
+    /// similarity curve bit-identical to `accumulate_peaks`, and equals d^p of the direct
+    /// evaluation (d = 1/max Sim − 1), on random features including special values.
+    #[test]
+    fn distance_sums_equal_scalar_and_direct_evaluation() {
+        let mut rng = crate::test_rng::Lcg(0x5eed_0001);
+        let mut rnd = move || rng.unit();
+        let special = [0.0, 1e-30, 1e30, -2.0, f32::INFINITY, f32::NAN];
+        for (qn, power) in [
+            (72usize, DistancePower::One),
+            (73, DistancePower::ThreeHalves),
+            (72, DistancePower::Two),
+            (7, DistancePower::ThreeHalves),
+        ] {
+            let b = CurveBuilder {
+                measure: SimilarityMeasure::Euclidean,
+                noisy: NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap(),
+                mean_free: false,
+                features: FeatureKind::Magnitude,
+            };
+            let az: [f32; 128] = core::array::from_fn(|i| i as f32 * 360.0 / qn as f32);
+            let noise = [[0.5f32; 3], [0.4, 0.5, 0.6]];
+            let mut features = [[0.0f32; 3]; 256];
+            for f in features[..2 * qn].iter_mut() {
+                *f = [rnd() * 1.5, rnd() * 1.5, rnd() * 1.5];
+            }
+            let table = ReferenceTable::new(
+                &az[..qn],
+                &[500.0, 1000.0],
+                &features[..2 * qn],
+                &noise,
+                &noise,
+            )
+            .unwrap();
+            for i in 0..60 {
+                let peaks: [PeakFeature; 5] = core::array::from_fn(|k| {
+                    let mut y = [rnd() * 1.2, rnd() * 1.2, rnd() * 1.2];
+                    if (i + k) % 7 == 0 {
+                        y[k % 3] = special[(i + k) % special.len()];
+                    }
+                    PeakFeature {
+                        fi: usize::from(k >= 2),
+                        y,
+                        weight: 0.2 + rnd(),
+                    }
+                });
+                let start: [f32; 128] = core::array::from_fn(|_| rnd());
+                let (mut curve, mut plain_curve, mut reference) = (start, start, start);
+                let (mut dist, mut single) = ([0.25f32; 128], [0.25f32; 128]);
+                let mut cache = RowCache::new();
+                b.accumulate_peaks_with_distance(
+                    &mut cache,
+                    &table,
+                    &peaks,
+                    &mut curve[..qn],
+                    Some(DistanceSum {
+                        power,
+                        curve: &mut dist[..qn],
+                    }),
+                );
+                b.accumulate_peaks(&mut RowCache::new(), &table, &peaks, &mut reference[..qn]);
+                for p in &peaks {
+                    let sums = DistanceSum {
+                        power,
+                        curve: &mut single[..qn],
+                    };
+                    b.accumulate_into(
+                        &table,
+                        p.fi,
+                        p.y,
+                        p.weight,
+                        &mut plain_curve[..qn],
+                        Some(sums),
+                    );
+                }
+                let bits = |v: &[f32; 128]| v.map(f32::to_bits);
+                assert_eq!(bits(&curve), bits(&reference), "q {qn} {power:?}");
+                assert_eq!(bits(&curve), bits(&plain_curve), "q {qn} {power:?}");
+                assert_eq!(bits(&dist), bits(&single), "q {qn} {power:?}");
+                if peaks
+                    .iter()
+                    .any(|p| p.y.iter().any(|v| !v.is_finite() || v.abs() > 10.0))
+                {
+                    continue;
+                }
+                for q in 0..qn {
+                    let mut want = 0.25f64;
+                    for p in &peaks {
+                        let nm = table.noise_magnitude(p.fi);
+                        let sim = b.max_similarity(p.y, table.row(p.fi)[q], nm, nm);
+                        let d = f64::from(crate::refine_curve::distance_of_similarity(sim));
+                        let e = match power {
+                            DistancePower::One => 1.0,
+                            DistancePower::ThreeHalves => 1.5,
+                            DistancePower::Two => 2.0,
+                        };
+                        want += f64::from(p.weight) * d.powf(e);
+                    }
+                    let got = f64::from(dist[q]);
+                    assert!(
+                        (got - want).abs() < 2e-5 * (1.0 + want),
+                        "q {q}: {got} vs {want}"
+                    );
+                }
             }
         }
     }

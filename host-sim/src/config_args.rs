@@ -3,6 +3,7 @@
 use crate::error::{Result, SimError};
 use cma_core::config::{Tracking, DEFAULT_GRID_TRACKER};
 use cma_core::noisy_reference::NoiseMixing;
+use cma_core::refine_curve::RefineCurve;
 use cma_core::similarity::SimilarityMeasure;
 use cma_core::{LocatorConfig, Method, ReferenceTable};
 
@@ -63,6 +64,31 @@ pub enum FeaturesArg {
     /// Re(X_c / X_0): the active ratio (noise mixes linearly toward ½; reflections average out);
     /// the default preset's choice.
     Active,
+}
+
+/// The grid tracker's refinement curve on the command line ([`RefineCurve`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RefineCurveArg {
+    /// The similarity curve (the tracker's likelihood; the earlier behaviour).
+    Similarity,
+    /// The mean peak distance d (an L1 fit).
+    Distance,
+    /// The mean of d^1.5 (the default).
+    #[value(name = "distance1.5")]
+    Distance15,
+    /// The mean of d² (a least-squares fit).
+    Distance2,
+}
+
+impl From<RefineCurveArg> for RefineCurve {
+    fn from(a: RefineCurveArg) -> Self {
+        match a {
+            RefineCurveArg::Similarity => RefineCurve::Similarity,
+            RefineCurveArg::Distance => RefineCurve::Distance,
+            RefineCurveArg::Distance15 => RefineCurve::Distance1_5,
+            RefineCurveArg::Distance2 => RefineCurve::Distance2,
+        }
+    }
 }
 
 /// Localizer configuration flags. Unset flags keep the preset's value.
@@ -171,6 +197,9 @@ pub struct ConfigArgs {
     /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
     #[arg(long)]
     pub refine_limit: Option<f32>,
+    /// Grid tracker: the curve whose running mean places the estimate between grid points.
+    #[arg(long, value_enum)]
+    pub refine_curve: Option<RefineCurveArg>,
     /// Noise-floor gate of the reliability b: on or off.
     #[arg(long, value_enum)]
     pub noise_gate: Option<OnOff>,
@@ -325,6 +354,9 @@ impl ConfigArgs {
         }
         if let Some(v) = self.refine_limit {
             grid.refine_limit = v;
+        }
+        if let Some(v) = self.refine_curve {
+            grid.refine_curve = v.into();
         }
         c.tracking = match (self.tracker, c.tracking) {
             (Some(TrackerArg::Onepole), _) => Tracking::OnePole,

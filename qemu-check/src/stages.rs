@@ -4,12 +4,13 @@
 //! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at 48 kHz.
 
 use crate::scene::{Scene, HOP_SAMPLES};
+use cma_core::config::Tracking;
 use cma_core::decimator::Decimator;
 use cma_core::front_end::FrontEnd;
 use cma_core::interpolation::argmax_parabolic;
 use cma_core::peak_picker::{PeakPicker, Peaks};
 use cma_core::reliability::{curve_variance, CurveFilter};
-use cma_core::similarity::{CurveBuilder, PeakFeature, RowCache};
+use cma_core::similarity::{CurveBuilder, DistanceSum, PeakFeature, RowCache};
 use cma_core::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use cma_core::{
     LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS,
@@ -77,6 +78,8 @@ pub struct Bench {
     omni_power: [f32; NUM_BINS],
     peaks: Peaks,
     curve: [f32; MAX_AZIMUTHS],
+    /// The grid tracker's refinement distance sums (default configuration).
+    distance: [f32; MAX_AZIMUTHS],
     filter: CurveFilter,
     front: FrontEnd,
     picker: PeakPicker,
@@ -103,6 +106,7 @@ impl Bench {
             omni_power: [0.0; NUM_BINS],
             peaks: Peaks::default(),
             curve: [0.0; MAX_AZIMUTHS],
+            distance: [0.0; MAX_AZIMUTHS],
             filter: CurveFilter::new(),
             front: FrontEnd::new(dec, c.input_guard(dec.factor())),
             picker: c.peak_picker(fs),
@@ -194,11 +198,30 @@ impl Bench {
             n_used += 1;
             weight_sum += 1.0;
         }
-        self.curves
-            .accumulate_peaks(&mut self.row_cache, &self.table, &used[..n_used], curve);
+        // The default grid tracker's refinement curve comes out of the same pass.
+        let power = match LocatorConfig::default().tracking {
+            Tracking::Grid(t) => t.refine_curve.power(),
+            Tracking::OnePole => None,
+        };
+        let distance = &mut self.distance[..q];
+        distance.fill(0.0);
+        let sums = power.map(|power| DistanceSum {
+            power,
+            curve: &mut *distance,
+        });
+        self.curves.accumulate_peaks_with_distance(
+            &mut self.row_cache,
+            &self.table,
+            &used[..n_used],
+            curve,
+            sums,
+        );
         let inv = 1.0 / weight_sum;
         for c in curve.iter_mut() {
             *c *= inv;
+        }
+        for v in distance.iter_mut() {
+            *v *= -inv;
         }
     }
 
