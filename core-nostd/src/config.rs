@@ -54,7 +54,7 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     onset_likelihood_floor: 0.05,
     refine_gain: 0.1,
     refine_limit: 1.0,
-    refine_curve: RefineCurve::Distance1_5,
+    refine_curve: RefineCurve::Similarity,
 };
 
 /// The product's noise-floor gate ([`NoiseGate`]).

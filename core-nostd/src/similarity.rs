@@ -389,36 +389,30 @@ impl CurveBuilder {
         curve: &mut [f32],
         distance: Option<DistanceSum<'_>>,
     ) {
-        match distance {
-            None => self.group_loop::<G, false>(
-                cache,
-                noise_mag,
-                ys,
-                weights,
-                curve,
-                &mut [],
-                DistancePower::One,
-            ),
-            Some(ds) => {
-                let n = curve.len().min(ds.curve.len());
-                self.group_loop::<G, true>(
-                    cache,
-                    noise_mag,
-                    ys,
-                    weights,
-                    &mut curve[..n],
-                    &mut ds.curve[..n],
-                    ds.power,
-                )
+        let Some(ds) = distance else {
+            self.group_loop::<G, false, 0>(cache, noise_mag, ys, weights, curve, &mut []);
+            return;
+        };
+        let n = curve.len().min(ds.curve.len());
+        let (curve, dist) = (&mut curve[..n], &mut ds.curve[..n]);
+        // One instance per power, so that the loop holds no branch on it.
+        match ds.power {
+            DistancePower::One => {
+                self.group_loop::<G, true, 2>(cache, noise_mag, ys, weights, curve, dist);
+            }
+            DistancePower::ThreeHalves => {
+                self.group_loop::<G, true, 3>(cache, noise_mag, ys, weights, curve, dist);
+            }
+            DistancePower::Two => {
+                self.group_loop::<G, true, 4>(cache, noise_mag, ys, weights, curve, dist);
             }
         }
     }
 
     /// The loop of [`CurveBuilder::accumulate_group`]; with `D` also Σ w·d^p into `dist` (as long as
-    /// `curve`).
-    #[allow(clippy::too_many_arguments)]
+    /// `curve`), p = `P2`/2 ([`DistancePower`]: 2, 3 or 4).
     #[inline(always)]
-    fn group_loop<const G: usize, const D: bool>(
+    fn group_loop<const G: usize, const D: bool, const P2: u8>(
         &self,
         cache: &RowCache,
         noise_mag: Feature,
@@ -426,8 +420,12 @@ impl CurveBuilder {
         weights: [f32; G],
         curve: &mut [f32],
         dist: &mut [f32],
-        power: DistancePower,
     ) {
+        let power = match P2 {
+            3 => DistancePower::ThreeHalves,
+            4 => DistancePower::Two,
+            _ => DistancePower::One,
+        };
         let d: [Feature; G] = ys.map(|y| minus(y, noise_mag));
         let dd: [f32; G] = core::array::from_fn(|g| {
             let d = d[g];
@@ -456,7 +454,8 @@ impl CurveBuilder {
         #[cfg(target_arch = "x86_64")]
         let entries =
             (first..ROW_CACHE_LEN).map(|q| core::array::from_fn::<f32, 5, _>(|k| cache.soa[k][q]));
-        for (q, (c, e)) in curve.iter_mut().zip(entries).enumerate() {
+        // One azimuth: its similarity sum and distance sum after the G peaks.
+        let body = |acc: f32, dacc: f32, e: [f32; 5]| -> (f32, f32) {
             let [m0, m1, m2, rr, sc] = e;
             let best: [f32; G] = core::array::from_fn(|g| {
                 let d = d[g];
@@ -465,24 +464,46 @@ impl CurveBuilder {
                 let a = alphas[nearest_in(near, mids, m2dr * sc)];
                 dd[g] + a * (a * rr + m2dr)
             });
-            // Square roots two at a time (one register transfer each way on the M4F).
-            let mut acc = *c;
+            let (mut acc, mut dacc) = (acc, dacc);
             for g in (0..G).step_by(2) {
-                let root = if g + 1 < G {
+                // Square roots two at a time (one register transfer each way on the M4F).
+                let pair = g + 1 < G;
+                let root = if pair {
                     sqrt_nonneg2([best[g], best[g + 1]])
                 } else {
                     [sqrt_nonneg(best[g]), 0.0]
                 };
-                for (h, r) in (g..G.min(g + 2)).zip(root) {
-                    acc += weights[h] / (1.0 + r);
+                let root2 = if D && power == DistancePower::ThreeHalves {
+                    if pair {
+                        sqrt_nonneg2(root)
+                    } else {
+                        [sqrt_nonneg(root[0]), 0.0]
+                    }
+                } else {
+                    [0.0; 2]
+                };
+                for (k, h) in (g..G.min(g + 2)).enumerate() {
+                    acc += weights[h] / (1.0 + root[k]);
                     if D {
-                        if let Some(v) = dist.get_mut(q) {
-                            *v += weights[h] * power.of(clamp_nonneg(best[h]), r);
-                        }
+                        let p = match power {
+                            DistancePower::One => root[k],
+                            DistancePower::ThreeHalves => root[k] * root2[k],
+                            DistancePower::Two => clamp_nonneg(best[h]),
+                        };
+                        dacc += weights[h] * p;
                     }
                 }
             }
-            *c = acc;
+            (acc, dacc)
+        };
+        if D {
+            for ((c, v), e) in curve.iter_mut().zip(dist.iter_mut()).zip(entries) {
+                (*c, *v) = body(*c, *v, e);
+            }
+        } else {
+            for (c, e) in curve.iter_mut().zip(entries) {
+                *c = body(*c, 0.0, e).0;
+            }
         }
     }
 

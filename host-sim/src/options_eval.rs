@@ -235,6 +235,8 @@ pub fn options_table(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use cma_core::config::Tracking;
+    use cma_core::refine_curve::RefineCurve;
 
     #[test]
     fn flags_reach_the_config_and_defaults_are_untouched() {
@@ -257,6 +259,19 @@ mod tests {
             (c.snr_from_db, c.snr_to_db, c.snr_step_db),
             (-10.0, 30.0, 5.0)
         );
+        for (flag, want) in [
+            ("similarity", RefineCurve::Similarity),
+            ("distance", RefineCurve::Distance),
+            ("distance1.5", RefineCurve::Distance1_5),
+            ("distance2", RefineCurve::Distance2),
+        ] {
+            let (c, _) = variant_config(&[], &format!("--refine-curve {flag}")).unwrap();
+            let Tracking::Grid(t) = c.tracking else {
+                panic!("grid tracker expected");
+            };
+            assert_eq!(t.refine_curve, want, "{flag}");
+        }
+        assert!(variant_config(&[], "--refine-curve distance3").is_err());
         assert!(variant_config(&[], "--quality loudness").is_err());
         assert!(variant_config(&[], "--fdiv-std -1").is_err());
         for (_, extra) in VARIANTS {

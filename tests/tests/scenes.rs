@@ -60,6 +60,8 @@ fn thesis_preset_switches_and_baselines_also_localize() {
         &["--features", "magnitude", "--frame-onset", "off"],
         &["--preset", "thesis", "--features", "active"],
         &["--preset", "thesis", "--frame-onset", "on"],
+        &["--refine-curve", "distance1.5"],
+        &["--refine-curve", "distance2"],
     ] {
         let rows = locate(&wav, flags);
         let err = errors_after(&rows, 1.5, 60.0);
