@@ -12,7 +12,7 @@ use crate::input_guard::InputGuard;
 use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::PeakPicker;
-use crate::refine_curve::RefineCurve;
+use crate::refine_curve::{DistancePower, RefineCurve};
 use crate::reliability::Reliability;
 use crate::similarity::{CurveBuilder, SimilarityMeasure};
 use crate::{FRAME_LEN, NUM_BINS};
@@ -173,6 +173,16 @@ impl LocatorConfig {
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,
+        }
+    }
+
+    /// The power of the distance curve whose running mean places the grid tracker's estimate
+    /// between grid points (`None`: the similarity curve does, or there is no such refinement).
+    #[must_use]
+    pub fn refine_distance_power(&self) -> Option<DistancePower> {
+        match self.tracking {
+            Tracking::Grid(t) if t.refine_gain > 0.0 => t.refine_curve.power(),
+            _ => None,
         }
     }
 

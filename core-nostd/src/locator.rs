@@ -510,10 +510,7 @@ impl<'t> Locator<'t> {
         let curve = &mut self.curve[..q];
         curve.fill(0.0);
         // The grid tracker's refinement curve, when it is a distance curve.
-        let power = match self.config.tracking {
-            Tracking::Grid(t) if t.refine_gain > 0.0 => t.refine_curve.power(),
-            _ => None,
-        };
+        let power = self.config.refine_distance_power();
         let distance = &mut self.distance[..q];
         if power.is_some() {
             distance.fill(0.0);

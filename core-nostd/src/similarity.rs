@@ -134,6 +134,16 @@ pub struct DistanceSum<'a> {
     pub curve: &'a mut [f32],
 }
 
+impl DistanceSum<'_> {
+    /// The same sums, borrowed for one call.
+    pub fn reborrow(&mut self) -> DistanceSum<'_> {
+        DistanceSum {
+            power: self.power,
+            curve: &mut *self.curve,
+        }
+    }
+}
+
 /// How one peak's similarity row is computed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CurveBuilder {
@@ -248,16 +258,13 @@ impl CurveBuilder {
         for (q, (c, r)) in curve.iter_mut().zip(row).enumerate() {
             let sim = self.max_similarity(y, *r, noise_mag, noise_pow);
             *c += weight * sim;
-            if let Some(ds) = distance.as_mut() {
+            if distance.is_some() {
                 let d = if self.measure == SimilarityMeasure::Cosine {
                     clamp_nonneg(1.0 - sim)
                 } else {
                     crate::refine_curve::distance_of_similarity(sim)
                 };
-                let p = ds.power.of(d * d, d);
-                if let Some(v) = ds.curve.get_mut(q) {
-                    *v += weight * p;
-                }
+                add_distance(&mut distance, q, weight, d * d, d);
             }
         }
     }
@@ -312,10 +319,7 @@ impl CurveBuilder {
     ) {
         let Some(q) = self.cached_len(table, curve) else {
             for p in peaks {
-                let ds = distance.as_mut().map(|d| DistanceSum {
-                    power: d.power,
-                    curve: &mut *d.curve,
-                });
+                let ds = distance.as_mut().map(DistanceSum::reborrow);
                 self.accumulate_into(table, p.fi, p.y, p.weight, curve, ds);
             }
             return;
@@ -326,10 +330,7 @@ impl CurveBuilder {
             self.fill_cache(cache, table, p.fi);
             let noise_mag = self.noise_mag(table, p.fi);
             let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
-            let ds = distance.as_mut().map(|d| DistanceSum {
-                power: d.power,
-                curve: &mut *d.curve,
-            });
+            let ds = distance.as_mut().map(DistanceSum::reborrow);
             if run == 2 {
                 let (p2, ws) = (rest[1], [p.weight, rest[1].weight]);
                 self.accumulate_group(cache, noise_mag, [p.y, p2.y], ws, curve, ds);

@@ -4,7 +4,6 @@
 //! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at 48 kHz.
 
 use crate::scene::{Scene, HOP_SAMPLES};
-use cma_core::config::Tracking;
 use cma_core::decimator::Decimator;
 use cma_core::front_end::FrontEnd;
 use cma_core::interpolation::argmax_parabolic;
@@ -199,10 +198,7 @@ impl Bench {
             weight_sum += 1.0;
         }
         // The default grid tracker's refinement curve comes out of the same pass.
-        let power = match LocatorConfig::default().tracking {
-            Tracking::Grid(t) => t.refine_curve.power(),
-            Tracking::OnePole => None,
-        };
+        let power = LocatorConfig::default().refine_distance_power();
         let distance = &mut self.distance[..q];
         distance.fill(0.0);
         let sums = power.map(|power| DistanceSum {
