@@ -2,6 +2,7 @@
 
 use crate::cartesian_filter::Smoothing;
 use crate::combination::{Combination, FdivSpread};
+use crate::curve_kernel::CurveKernel;
 use crate::direct_sound::DirectSound;
 use crate::error::Error;
 use crate::features::FeatureKind;
@@ -90,6 +91,9 @@ pub struct LocatorConfig {
     pub fill_peaks: bool,
     /// Similarity measure.
     pub measure: SimilarityMeasure,
+    /// The per-peak term of the similarity curve: the measure's own value (the thesis) or
+    /// 1 − k·d^p of the measure's distance d ([`CurveKernel`]).
+    pub kernel: CurveKernel,
     /// Noisy reference features: mixing rule.
     pub noise_mixing: NoiseMixing,
     /// Noisy reference features: lowest SNR set, dB.
@@ -147,6 +151,7 @@ impl LocatorConfig {
             peak_threshold: 0.0,
             fill_peaks: true,
             measure: SimilarityMeasure::Euclidean,
+            kernel: CurveKernel::Reciprocal,
             noise_mixing: NoiseMixing::Magnitude,
             snr_from_db: -30.0,
             snr_to_db: 40.0,
@@ -178,8 +183,13 @@ impl LocatorConfig {
 
     /// The power of the distance curve whose running mean places the grid tracker's estimate
     /// between grid points (`None`: the similarity curve does, or there is no such refinement).
+    /// With a distance [`CurveKernel`] the similarity curve already is a distance curve, so it
+    /// places the estimate, and this is `None`.
     #[must_use]
     pub fn refine_distance_power(&self) -> Option<DistancePower> {
+        if self.kernel.distance().is_some() {
+            return None;
+        }
         match self.tracking {
             Tracking::Grid(t) if t.refine_gain > 0.0 => t.refine_curve.power(),
             _ => None,
@@ -233,8 +243,9 @@ impl Default for LocatorConfig {
     /// noise-floor gate and the frame onset weighting of b, and active-ratio features.
     fn default() -> Self {
         let mut c = Self::thesis();
-        c.reliability.v_floor = 0.0006;
-        c.reliability.v_max = 0.002;
+        c.kernel = CurveKernel::DEFAULT;
+        c.reliability.v_floor = 0.0004;
+        c.reliability.v_max = 0.003;
         c.direct_sound.onset_exponent = 1.0;
         c.tracking = Tracking::Grid(DEFAULT_GRID_TRACKER);
         c.noise_gate = DEFAULT_NOISE_GATE;

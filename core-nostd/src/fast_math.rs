@@ -60,6 +60,105 @@ pub fn sqrt_nonneg2(x: [f32; 2]) -> [f32; 2] {
     sqrtf2(x.map(clamp_nonneg))
 }
 
+/// d·√d for d = √max(x, 0), of two values at once: the distance power d^1.5 from a squared
+/// distance. Bit-identical to `let d = sqrt_nonneg(x); d * sqrtf(d)` (the same correctly rounded
+/// operations); on the M4F the four square roots and two products run in one FPU block, with one
+/// register transfer each way for both values.
+#[inline(always)]
+#[must_use]
+pub fn pow_three_halves_nonneg2(x: [f32; 2]) -> [f32; 2] {
+    let x = x.map(clamp_nonneg);
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        vpow3_2(x)
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        x.map(|v| {
+            let d = libm::sqrtf(v);
+            d * libm::sqrtf(d)
+        })
+    }
+}
+
+/// [`pow_three_halves_nonneg2`] of one value.
+#[inline(always)]
+#[must_use]
+pub fn pow_three_halves_nonneg(x: f32) -> f32 {
+    let x = clamp_nonneg(x);
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        vpow3_2_one(x)
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        let d = libm::sqrtf(x);
+        d * libm::sqrtf(d)
+    }
+}
+
+/// √x·√√x of one value on the FPU (borrowing `s0` and `s1`, see [`vsqrt2`]).
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline(always)]
+#[allow(unsafe_code)]
+fn vpow3_2_one(x: f32) -> f32 {
+    let y: u32;
+    // Note(unsafe): register-only FPU code, as in `vsqrt2`.
+    unsafe {
+        core::arch::asm!(
+            "vmov {t0}, {t1}, s0, s1",
+            "vmov s0, {x}",
+            "vsqrt.f32 s0, s0",
+            "vsqrt.f32 s1, s0",
+            "vmul.f32 s0, s0, s1",
+            "vmov {y}, s0",
+            "vmov s0, s1, {t0}, {t1}",
+            x = in(reg) x.to_bits(),
+            y = lateout(reg) y,
+            t0 = out(reg) _,
+            t1 = out(reg) _,
+            options(pure, nomem, nostack, preserves_flags)
+        );
+    }
+    f32::from_bits(y)
+}
+
+/// √x·√√x of two values on the FPU (see [`vsqrt2`] for how the block borrows FPU registers; this
+/// one borrows `s0`…`s3`).
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline(always)]
+#[allow(unsafe_code)]
+fn vpow3_2(x: [f32; 2]) -> [f32; 2] {
+    let (y0, y1): (u32, u32);
+    // Note(unsafe): register-only FPU code, as in `vsqrt2`, saving and restoring s0…s3.
+    unsafe {
+        core::arch::asm!(
+            "vmov {t0}, {t1}, s0, s1",
+            "vmov {t2}, {t3}, s2, s3",
+            "vmov s0, s1, {x0}, {x1}",
+            "vsqrt.f32 s0, s0",
+            "vsqrt.f32 s1, s1",
+            "vsqrt.f32 s2, s0",
+            "vsqrt.f32 s3, s1",
+            "vmul.f32 s0, s0, s2",
+            "vmul.f32 s1, s1, s3",
+            "vmov {y0}, {y1}, s0, s1",
+            "vmov s0, s1, {t0}, {t1}",
+            "vmov s2, s3, {t2}, {t3}",
+            x0 = in(reg) x[0].to_bits(),
+            x1 = in(reg) x[1].to_bits(),
+            y0 = lateout(reg) y0,
+            y1 = lateout(reg) y1,
+            t0 = out(reg) _,
+            t1 = out(reg) _,
+            t2 = out(reg) _,
+            t3 = out(reg) _,
+            options(pure, nomem, nostack, preserves_flags)
+        );
+    }
+    [f32::from_bits(y0), f32::from_bits(y1)]
+}
+
 /// Two `VSQRT.F32` on the FPU.
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
 #[inline(always)]
@@ -109,6 +208,22 @@ mod tests {
         assert!(sqrtf(-1.0).is_nan());
         assert_eq!(sqrtf2([4.0, 9.0]), [2.0, 3.0]);
         assert_eq!(sqrt_nonneg2([-4.0, 9.0]), [0.0, 3.0]);
+        assert_eq!(pow_three_halves_nonneg2([16.0, -1.0]), [8.0, 0.0]);
+        for _ in 0..10_000 {
+            let x = f32::from_bits(rng.next_u32() >> 1);
+            let d = sqrt_nonneg(x);
+            let want = d * sqrtf(d);
+            assert_eq!(
+                pow_three_halves_nonneg2([x, x])[1].to_bits(),
+                want.to_bits(),
+                "{x:e}"
+            );
+            assert_eq!(
+                pow_three_halves_nonneg(x).to_bits(),
+                want.to_bits(),
+                "{x:e}"
+            );
+        }
     }
 
     #[test]

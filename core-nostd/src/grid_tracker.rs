@@ -80,6 +80,20 @@ pub struct GridTracker {
     pub refine_curve: RefineCurve,
 }
 
+/// An exponent x below which `floor + (1 − floor)·exp_nonpositive(x)` rounds to `floor` exactly
+/// (−∞ for a floor ≤ 0 or NaN). With 2^e ≤ floor < 2^(e+1) (e from the exponent bits) it is
+/// (e − 26)·ln 2: then e^x < floor·2⁻²⁶, the computed term (1 − floor)·exp_nonpositive(x) (relative
+/// error below 10⁻⁵) stays below floor·2⁻²⁵ < 2^(e−24), half a unit in the last place of the floor,
+/// so the sum rounds to the floor. The tracker then skips the exponential of azimuths far below the
+/// curve's maximum, and the posterior keeps its bits.
+fn negligible_exponent(floor: f32) -> f32 {
+    if !(floor > 0.0) {
+        return f32::NEG_INFINITY;
+    }
+    let e = ((floor.to_bits() >> 23) & 0xff) as i32 - 127;
+    (e - 26) as f32 * core::f32::consts::LN_2
+}
+
 /// Frame-to-frame changes larger than this (degrees) are jumps, not motion, for the velocity estimate.
 const MAX_MOTION_STEP_DEG: f32 = 8.0;
 
@@ -290,9 +304,15 @@ impl GridTracker {
         let post = &mut state.posterior[..q];
         let prior = &state.scratch[..q];
         if gain > 0.0 && s_max.is_finite() {
+            let cut = negligible_exponent(floor);
             for ((o, p), c) in post.iter_mut().zip(prior).zip(&curve[..q]) {
-                let like =
-                    floor + (1.0 - floor) * crate::fast_exp::exp_nonpositive(gain * (c - s_max));
+                let x = gain * (c - s_max);
+                // Below `cut` the sum rounds to the floor: the same bits without the exponential.
+                let like = if x < cut {
+                    floor
+                } else {
+                    floor + (1.0 - floor) * crate::fast_exp::exp_nonpositive(x)
+                };
                 *o = p * like;
                 sum += *o;
             }
@@ -374,6 +394,28 @@ impl GridTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn negligible_exponent_keeps_the_likelihood_bits() {
+        assert_eq!(negligible_exponent(0.0), f32::NEG_INFINITY);
+        assert_eq!(negligible_exponent(f32::NAN), f32::NEG_INFINITY);
+        let mut rng = crate::test_rng::Lcg(11);
+        for floor in [0.2f32, 0.05, 0.5, 1.0, 0.125, 0.999, 1e-3, 1e-30] {
+            let cut = negligible_exponent(floor);
+            assert!(cut < 0.0 && cut.is_finite(), "{floor}");
+            // Every x below the cut: the full expression rounds to the floor.
+            for i in 0..20_000 {
+                let x = cut - (i as f32) * 0.005 - (rng.next_u32() >> 9) as f32 * 1e-9;
+                let full = floor + (1.0 - floor) * crate::fast_exp::exp_nonpositive(x);
+                assert_eq!(full.to_bits(), floor.to_bits(), "floor {floor} x {x}");
+            }
+            // And the cut is within a few natural-log units of where the exponential stops mattering.
+            if floor <= 0.5 {
+                let above = floor + (1.0 - floor) * crate::fast_exp::exp_nonpositive(cut + 4.0);
+                assert_ne!(above.to_bits(), floor.to_bits(), "floor {floor}");
+            }
+        }
+    }
 
     fn peaked(q: usize, at: usize) -> [f32; 72] {
         core::array::from_fn(|i| {

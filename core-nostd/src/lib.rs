@@ -42,6 +42,7 @@ pub mod block_decimator;
 pub mod cartesian_filter;
 pub mod combination;
 pub mod config;
+pub mod curve_kernel;
 pub mod decimator;
 pub mod direct_sound;
 pub mod distance;

@@ -29,8 +29,8 @@ use crate::noise_floor::NoiseFloor;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
-use crate::reliability::{curve_variance, CurveFilter};
-use crate::similarity::{CurveBuilder, DistanceSum, PeakFeature, RowCache};
+use crate::reliability::{curve_variance_with_sum, CurveFilter};
+use crate::similarity::{normalise_frame_curve, CurveBuilder, PeakFeature, RowCache};
 use crate::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
@@ -271,6 +271,9 @@ impl<'t> Locator<'t> {
                 "frame onset: history 1…8 frames, finite low < high, floor in [0, 1]",
             ));
         }
+        if !c.kernel.is_valid() {
+            return Err(Error::InvalidConfig("kernel: need a finite scale > 0"));
+        }
         if let Tracking::Grid(t) = c.tracking {
             if !t.is_valid() {
                 return Err(Error::InvalidConfig(
@@ -508,13 +511,10 @@ impl<'t> Locator<'t> {
 
         let ds: DirectSound = self.config.direct_sound;
         let curve = &mut self.curve[..q];
-        curve.fill(0.0);
-        // The grid tracker's refinement curve, when it is a distance curve.
+        // The grid tracker's refinement curve, when it is a separate distance curve.
         let power = self.config.refine_distance_power();
+        let kernel = self.config.kernel;
         let distance = &mut self.distance[..q];
-        if power.is_some() {
-            distance.fill(0.0);
-        }
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
         let mut used = [PeakFeature {
@@ -561,16 +561,14 @@ impl<'t> Locator<'t> {
             weight_sum += w;
             n_used += 1;
         }
-        let sums = power.map(|power| DistanceSum {
-            power,
-            curve: &mut *distance,
-        });
-        self.curves.accumulate_peaks_with_distance(
+        self.curves.frame_curve(
             &mut self.row_cache,
             &self.table,
             &used[..n_used],
+            kernel,
+            power,
             curve,
-            sums,
+            distance,
         );
         if ds.onset_exponent > 0.0 {
             let (lo, hi) = self.picker.band();
@@ -586,18 +584,8 @@ impl<'t> Locator<'t> {
             b = 0.0;
             variance = 0.0;
         } else {
-            let inv = 1.0 / weight_sum;
-            for c in curve.iter_mut() {
-                *c *= inv;
-            }
-            if power.is_some() {
-                // Negated, so that like the similarity curve it peaks at the talker.
-                let neg = -inv;
-                for v in distance.iter_mut() {
-                    *v *= neg;
-                }
-            }
-            variance = curve_variance(curve);
+            let sum = normalise_frame_curve(kernel, power.is_some(), weight_sum, curve, distance);
+            variance = curve_variance_with_sum(curve, sum);
             b *= self.config.reliability.coefficient(variance);
             // Issue 6: alternative frame quality measures / binary b (frame_quality.rs).
             if !self.config.quality.is_default() {

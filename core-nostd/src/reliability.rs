@@ -53,11 +53,18 @@ pub fn unit_reliability(b: f32) -> f32 {
 /// Sample variance (n − 1 normalisation) of a curve; 0 for fewer than two points.
 #[must_use]
 pub fn curve_variance(curve: &[f32]) -> f32 {
+    curve_variance_with_sum(curve, curve.iter().fold(0.0, |s, v| s + v))
+}
+
+/// [`curve_variance`] with the curve's sum (in order from 0, as [`curve_variance`] adds it) already
+/// known: the frame curve's normalisation adds it up in the same pass.
+#[must_use]
+pub fn curve_variance_with_sum(curve: &[f32], sum: f32) -> f32 {
     let n = curve.len();
     if n < 2 {
         return 0.0;
     }
-    let mean = curve.iter().sum::<f32>() / n as f32;
+    let mean = sum / n as f32;
     curve.iter().map(|v| (v - mean) * (v - mean)).sum::<f32>() / (n - 1) as f32
 }
 

@@ -1,7 +1,11 @@
 //! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
-use crate::fast_math::{clamp_nonneg, sqrt_nonneg, sqrt_nonneg2, sqrtf};
+use crate::curve_kernel::CurveKernel;
+use crate::fast_math::{
+    clamp_nonneg, pow_three_halves_nonneg, pow_three_halves_nonneg2, sqrt_nonneg, sqrt_nonneg2,
+    sqrtf, sqrtf2,
+};
 use crate::features::FeatureKind;
 use crate::noisy_reference::{nearest_in, NoiseMixing, NoisyReferences, LUT_LEN};
 use crate::refine_curve::DistancePower;
@@ -125,13 +129,17 @@ pub struct PeakFeature {
 }
 
 /// Where [`CurveBuilder::accumulate_peaks_with_distance`] adds the peaks' weighted distance powers
-/// Σ w·d^p (for [`crate::refine_curve::RefineCurve`]) next to the similarity curve.
+/// Σ w·d^p (for [`crate::refine_curve::RefineCurve`] and [`crate::curve_kernel::CurveKernel`]) next
+/// to the similarity curve.
 #[derive(Debug)]
 pub struct DistanceSum<'a> {
     /// The power p of the distance.
     pub power: DistancePower,
     /// Per azimuth: Σ w·d^p (added to, like the similarity curve).
     pub curve: &'a mut [f32],
+    /// Only the distance sums are wanted: the fast cached path then leaves the similarity curve
+    /// unchanged, the others zero it and add to it, so the caller must treat it as scratch.
+    pub sums_only: bool,
 }
 
 impl DistanceSum<'_> {
@@ -140,6 +148,7 @@ impl DistanceSum<'_> {
         DistanceSum {
             power: self.power,
             curve: &mut *self.curve,
+            sums_only: self.sums_only,
         }
     }
 }
@@ -318,6 +327,9 @@ impl CurveBuilder {
         mut distance: Option<DistanceSum<'_>>,
     ) {
         let Some(q) = self.cached_len(table, curve) else {
+            if distance.as_ref().is_some_and(|d| d.sums_only) {
+                curve.fill(0.0);
+            }
             for p in peaks {
                 let ds = distance.as_mut().map(DistanceSum::reborrow);
                 self.accumulate_into(table, p.fi, p.y, p.weight, curve, ds);
@@ -338,6 +350,43 @@ impl CurveBuilder {
                 self.accumulate_group(cache, noise_mag, [p.y], [p.weight], curve, ds);
             }
             rest = &rest[run..];
+        }
+    }
+
+    /// The frame's curve sums from its peaks, both buffers zeroed first: with the
+    /// [`CurveKernel::Reciprocal`] kernel the similarity sums into `curve` and, with `refine`, Σ w·d^p
+    /// into `distance` (the refinement curve, [`crate::refine_curve::RefineCurve`]); with a distance
+    /// kernel Σ w·d^p into `curve`, and `distance` is scratch (not zeroed: the fast path does not
+    /// touch it). [`normalise_frame_curve`] turns the sums into the curves.
+    #[allow(clippy::too_many_arguments)]
+    pub fn frame_curve(
+        &self,
+        cache: &mut RowCache,
+        table: &ReferenceTable<'_>,
+        peaks: &[PeakFeature],
+        kernel: CurveKernel,
+        refine: Option<DistancePower>,
+        curve: &mut [f32],
+        distance: &mut [f32],
+    ) {
+        curve.fill(0.0);
+        if let Some((power, _)) = kernel.distance() {
+            let sums = DistanceSum {
+                power,
+                curve,
+                sums_only: true,
+            };
+            self.accumulate_peaks_with_distance(cache, table, peaks, distance, Some(sums));
+        } else {
+            let sums = refine.map(|power| {
+                distance.fill(0.0);
+                DistanceSum {
+                    power,
+                    curve: distance,
+                    sums_only: false,
+                }
+            });
+            self.accumulate_peaks_with_distance(cache, table, peaks, curve, sums);
         }
     }
 
@@ -391,29 +440,40 @@ impl CurveBuilder {
         distance: Option<DistanceSum<'_>>,
     ) {
         let Some(ds) = distance else {
-            self.group_loop::<G, false, 0>(cache, noise_mag, ys, weights, curve, &mut []);
+            self.group_loop::<G, true, false, 0>(cache, noise_mag, ys, weights, curve, &mut []);
             return;
         };
         let n = curve.len().min(ds.curve.len());
         let (curve, dist) = (&mut curve[..n], &mut ds.curve[..n]);
         // One instance per power, so that the loop holds no branch on it.
-        match ds.power {
-            DistancePower::One => {
-                self.group_loop::<G, true, 2>(cache, noise_mag, ys, weights, curve, dist);
+        let (c, w) = (cache, noise_mag);
+        match (ds.sums_only, ds.power) {
+            (false, DistancePower::One) => {
+                self.group_loop::<G, true, true, 2>(c, w, ys, weights, curve, dist)
             }
-            DistancePower::ThreeHalves => {
-                self.group_loop::<G, true, 3>(cache, noise_mag, ys, weights, curve, dist);
+            (false, DistancePower::ThreeHalves) => {
+                self.group_loop::<G, true, true, 3>(c, w, ys, weights, curve, dist)
             }
-            DistancePower::Two => {
-                self.group_loop::<G, true, 4>(cache, noise_mag, ys, weights, curve, dist);
+            (false, DistancePower::Two) => {
+                self.group_loop::<G, true, true, 4>(c, w, ys, weights, curve, dist)
+            }
+            (true, DistancePower::One) => {
+                self.group_loop::<G, false, true, 2>(c, w, ys, weights, curve, dist)
+            }
+            (true, DistancePower::ThreeHalves) => {
+                self.group_loop::<G, false, true, 3>(c, w, ys, weights, curve, dist)
+            }
+            (true, DistancePower::Two) => {
+                self.group_loop::<G, false, true, 4>(c, w, ys, weights, curve, dist)
             }
         }
     }
 
-    /// The loop of [`CurveBuilder::accumulate_group`]; with `D` also Σ w·d^p into `dist` (as long as
-    /// `curve`), p = `P2`/2 ([`DistancePower`]: 2, 3 or 4).
+    /// The loop of [`CurveBuilder::accumulate_group`]; with `S` the similarity sums into `curve`, with
+    /// `D` also Σ w·d^p into `dist` (as long as `curve`), p = `P2`/2 ([`DistancePower`]: 2, 3 or 4).
+    /// At least one of `S` and `D` is set.
     #[inline(always)]
-    fn group_loop<const G: usize, const D: bool, const P2: u8>(
+    fn group_loop<const G: usize, const S: bool, const D: bool, const P2: u8>(
         &self,
         cache: &RowCache,
         noise_mag: Feature,
@@ -443,7 +503,7 @@ impl CurveBuilder {
         #[cfg(target_arch = "x86_64")]
         let (curve, first) = {
             let n = self.noisy.alphas().len();
-            let done = sse::group::<G, D>(
+            let done = sse::group::<G, S, D>(
                 &cache.soa, &d, &dd, &weights, &alphas, mids, n, curve, dist, power,
             );
             (&mut curve[done..], done)
@@ -466,6 +526,20 @@ impl CurveBuilder {
                 dd[g] + a * (a * rr + m2dr)
             });
             let (mut acc, mut dacc) = (acc, dacc);
+            if !S && power == DistancePower::ThreeHalves {
+                // Only d^1.5: one FPU block for both powers of a pair.
+                for g in (0..G).step_by(2) {
+                    let p = if g + 1 < G {
+                        pow_three_halves_nonneg2([best[g], best[g + 1]])
+                    } else {
+                        [pow_three_halves_nonneg(best[g]), 0.0]
+                    };
+                    for (k, h) in (g..G.min(g + 2)).enumerate() {
+                        dacc += weights[h] * p[k];
+                    }
+                }
+                return (acc, dacc);
+            }
             for g in (0..G).step_by(2) {
                 // Square roots two at a time (one register transfer each way on the M4F).
                 let pair = g + 1 < G;
@@ -474,17 +548,20 @@ impl CurveBuilder {
                 } else {
                     [sqrt_nonneg(best[g]), 0.0]
                 };
+                // `root` is ≥ 0 (or a positive NaN) already: no clamp.
                 let root2 = if D && power == DistancePower::ThreeHalves {
                     if pair {
-                        sqrt_nonneg2(root)
+                        sqrtf2(root)
                     } else {
-                        [sqrt_nonneg(root[0]), 0.0]
+                        [sqrtf(root[0]), 0.0]
                     }
                 } else {
                     [0.0; 2]
                 };
                 for (k, h) in (g..G.min(g + 2)).enumerate() {
-                    acc += weights[h] / (1.0 + root[k]);
+                    if S {
+                        acc += weights[h] / (1.0 + root[k]);
+                    }
                     if D {
                         let p = match power {
                             DistancePower::One => root[k],
@@ -497,7 +574,11 @@ impl CurveBuilder {
             }
             (acc, dacc)
         };
-        if D {
+        if !S {
+            for (v, e) in dist.iter_mut().zip(entries) {
+                *v = body(0.0, *v, e).1;
+            }
+        } else if D {
             for ((c, v), e) in curve.iter_mut().zip(dist.iter_mut()).zip(entries) {
                 (*c, *v) = body(*c, *v, e);
             }
@@ -530,6 +611,41 @@ impl CurveBuilder {
         }
         best
     }
+}
+
+/// Divides the sums of [`CurveBuilder::frame_curve`] by the total peak weight `weight_sum` > 0:
+/// the mean similarity curve (1 − k·Σ w·d^p / Σ w for a distance kernel) and, with `refine`, the
+/// negated mean distance curve −Σ w·d^p / Σ w, which like the similarity curve peaks at the talker.
+/// Returns the sum of the similarity curve, added in order from 0 (for
+/// [`crate::reliability::curve_variance_with_sum`]).
+pub fn normalise_frame_curve(
+    kernel: CurveKernel,
+    refine: bool,
+    weight_sum: f32,
+    curve: &mut [f32],
+    distance: &mut [f32],
+) -> f32 {
+    let inv = 1.0 / weight_sum;
+    let mut sum = 0.0f32;
+    if let Some((_, scale)) = kernel.distance() {
+        let m = scale * inv;
+        for c in curve.iter_mut() {
+            *c = 1.0 - *c * m;
+            sum += *c;
+        }
+    } else {
+        for c in curve.iter_mut() {
+            *c *= inv;
+            sum += *c;
+        }
+        if refine {
+            let neg = -inv;
+            for v in distance.iter_mut() {
+                *v *= neg;
+            }
+        }
+    }
+    sum
 }
 
 /// Adds `weight · d^p` at azimuth `q` of the distance sum, if there is one (d² = `squared`, d = `root`).
@@ -601,7 +717,7 @@ mod sse {
     /// done.
     #[allow(unsafe_code, clippy::too_many_arguments)]
     #[inline(always)]
-    pub(super) fn group<const G: usize, const D: bool>(
+    pub(super) fn group<const G: usize, const S: bool, const D: bool>(
         soa: &[[f32; ROW_CACHE_LEN]; 5],
         d: &[Feature; G],
         dd: &[f32; G],
@@ -634,7 +750,11 @@ mod sse {
             while i < len {
                 let ld = |k: usize| -> __m128 { _mm_loadu_ps(soa[k][i..i + 4].as_ptr()) };
                 let (m0, m1, m2, rr, sc) = (ld(0), ld(1), ld(2), ld(3), ld(4));
-                let mut acc = _mm_loadu_ps(curve[i..i + 4].as_ptr());
+                let mut acc = if S {
+                    _mm_loadu_ps(curve[i..i + 4].as_ptr())
+                } else {
+                    _mm_setzero_ps()
+                };
                 let mut dacc = if D {
                     _mm_loadu_ps(dist[i..i + 4].as_ptr())
                 } else {
@@ -666,10 +786,12 @@ mod sse {
                     let bits = _mm_castps_si128(best);
                     let best = _mm_castsi128_ps(_mm_andnot_si128(_mm_srai_epi32(bits, 31), bits));
                     let root = _mm_sqrt_ps(best);
-                    acc = _mm_add_ps(
-                        acc,
-                        _mm_div_ps(_mm_set1_ps(weights[g]), _mm_add_ps(one, root)),
-                    );
+                    if S {
+                        acc = _mm_add_ps(
+                            acc,
+                            _mm_div_ps(_mm_set1_ps(weights[g]), _mm_add_ps(one, root)),
+                        );
+                    }
                     if D {
                         // `DistancePower::of` in lanes.
                         let p = match power {
@@ -680,7 +802,9 @@ mod sse {
                         dacc = _mm_add_ps(dacc, _mm_mul_ps(_mm_set1_ps(weights[g]), p));
                     }
                 }
-                _mm_storeu_ps(curve[i..i + 4].as_mut_ptr(), acc);
+                if S {
+                    _mm_storeu_ps(curve[i..i + 4].as_mut_ptr(), acc);
+                }
                 if D {
                     _mm_storeu_ps(dist[i..i + 4].as_mut_ptr(), dacc);
                 }
@@ -860,6 +984,20 @@ mod tests {
                     Some(DistanceSum {
                         power,
                         curve: &mut dist[..qn],
+                        sums_only: false,
+                    }),
+                );
+                // Only the sums: the same bits, and the cached path leaves the curve alone.
+                let (mut untouched, mut only) = (start, [0.25f32; 128]);
+                b.accumulate_peaks_with_distance(
+                    &mut cache,
+                    &table,
+                    &peaks,
+                    &mut untouched[..qn],
+                    Some(DistanceSum {
+                        power,
+                        curve: &mut only[..qn],
+                        sums_only: true,
                     }),
                 );
                 b.accumulate_peaks(&mut RowCache::new(), &table, &peaks, &mut reference[..qn]);
@@ -867,6 +1005,7 @@ mod tests {
                     let sums = DistanceSum {
                         power,
                         curve: &mut single[..qn],
+                        sums_only: false,
                     };
                     b.accumulate_into(
                         &table,
@@ -881,6 +1020,8 @@ mod tests {
                 assert_eq!(bits(&curve), bits(&reference), "q {qn} {power:?}");
                 assert_eq!(bits(&curve), bits(&plain_curve), "q {qn} {power:?}");
                 assert_eq!(bits(&dist), bits(&single), "q {qn} {power:?}");
+                assert_eq!(bits(&only), bits(&dist), "q {qn} {power:?}");
+                assert_eq!(bits(&untouched), bits(&start), "q {qn} {power:?}");
                 if peaks
                     .iter()
                     .any(|p| p.y.iter().any(|v| !v.is_finite() || v.abs() > 10.0))

@@ -2,8 +2,9 @@
 
 use crate::error::{Result, SimError};
 use cma_core::config::{Tracking, DEFAULT_GRID_TRACKER};
+use cma_core::curve_kernel::CurveKernel;
 use cma_core::noisy_reference::NoiseMixing;
-use cma_core::refine_curve::RefineCurve;
+use cma_core::refine_curve::{DistancePower, RefineCurve};
 use cma_core::similarity::SimilarityMeasure;
 use cma_core::{LocatorConfig, Method, ReferenceTable};
 
@@ -73,7 +74,7 @@ pub enum RefineCurveArg {
     Similarity,
     /// The mean peak distance d (an L1 fit).
     Distance,
-    /// The mean of d^1.5 (the default).
+    /// The mean of d^1.5.
     #[value(name = "distance1.5")]
     Distance15,
     /// The mean of d² (a least-squares fit).
@@ -89,6 +90,20 @@ impl From<RefineCurveArg> for RefineCurve {
             RefineCurveArg::Distance2 => RefineCurve::Distance2,
         }
     }
+}
+
+/// The per-peak term of the similarity curve on the command line ([`CurveKernel`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum KernelArg {
+    /// The measure's similarity, 1/(1 + d) for `euclid` (the thesis).
+    Reciprocal,
+    /// 1 − k·d (an L1 fit of the peaks' directions).
+    Distance,
+    /// 1 − k·d^1.5 (the default).
+    #[value(name = "distance1.5")]
+    Distance15,
+    /// 1 − k·d² (a least-squares fit).
+    Distance2,
 }
 
 /// Localizer configuration flags. Unset flags keep the preset's value.
@@ -118,6 +133,12 @@ pub struct ConfigArgs {
     /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
     #[arg(long)]
     pub measure: Option<String>,
+    /// The per-peak term of the similarity curve.
+    #[arg(long, value_enum)]
+    pub kernel: Option<KernelArg>,
+    /// Scale k of a distance kernel (1 − k·d^p); the preset's, or 1.5, when unset.
+    #[arg(long)]
+    pub kernel_scale: Option<f32>,
     /// Noisy reference features: mixing rule.
     #[arg(long, value_enum)]
     pub noise: Option<NoiseArg>,
@@ -248,6 +269,29 @@ pub struct ConfigArgs {
 }
 
 impl ConfigArgs {
+    /// The preset's kernel `preset` with `--kernel` and `--kernel-scale` applied.
+    fn kernel(&self, preset: CurveKernel) -> Result<CurveKernel> {
+        let scale = self
+            .kernel_scale
+            .or(preset.distance().map(|(_, k)| k))
+            .unwrap_or(1.5);
+        let power = match self.kernel {
+            None => preset.distance().map(|(p, _)| p),
+            Some(KernelArg::Reciprocal) => None,
+            Some(KernelArg::Distance) => Some(DistancePower::One),
+            Some(KernelArg::Distance15) => Some(DistancePower::ThreeHalves),
+            Some(KernelArg::Distance2) => Some(DistancePower::Two),
+        };
+        match power {
+            Some(power) => Ok(CurveKernel::Distance { power, scale }),
+            None if self.kernel_scale.is_some() => Err(SimError::Usage(
+                "--kernel-scale needs a distance kernel (--kernel distance|distance1.5|distance2)"
+                    .into(),
+            )),
+            None => Ok(CurveKernel::Reciprocal),
+        }
+    }
+
     /// The configuration these flags describe.
     pub fn config(&self) -> Result<LocatorConfig> {
         let mut c = match self.preset {
@@ -271,6 +315,7 @@ impl ConfigArgs {
         if let Some(m) = &self.measure {
             c.measure = parse_measure(m)?;
         }
+        c.kernel = self.kernel(c.kernel)?;
         if let Some(n) = self.noise {
             c.noise_mixing = match n {
                 NoiseArg::Off => NoiseMixing::Off,

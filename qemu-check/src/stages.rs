@@ -8,8 +8,8 @@ use cma_core::decimator::Decimator;
 use cma_core::front_end::FrontEnd;
 use cma_core::interpolation::argmax_parabolic;
 use cma_core::peak_picker::{PeakPicker, Peaks};
-use cma_core::reliability::{curve_variance, CurveFilter};
-use cma_core::similarity::{CurveBuilder, DistanceSum, PeakFeature, RowCache};
+use cma_core::reliability::{curve_variance_with_sum, CurveFilter};
+use cma_core::similarity::{normalise_frame_curve, CurveBuilder, PeakFeature, RowCache};
 use cma_core::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
 use cma_core::{
     LocatorConfig, ReferenceTable, CHANNELS, FRAME_LEN, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS,
@@ -77,8 +77,11 @@ pub struct Bench {
     omni_power: [f32; NUM_BINS],
     peaks: Peaks,
     curve: [f32; MAX_AZIMUTHS],
-    /// The grid tracker's refinement distance sums (default configuration).
+    /// The grid tracker's refinement distance sums, or the distance kernel's scratch (default
+    /// configuration).
     distance: [f32; MAX_AZIMUTHS],
+    /// The curve's sum from its normalisation, for the variance.
+    curve_sum: f32,
     filter: CurveFilter,
     front: FrontEnd,
     picker: PeakPicker,
@@ -106,6 +109,7 @@ impl Bench {
             peaks: Peaks::default(),
             curve: [0.0; MAX_AZIMUTHS],
             distance: [0.0; MAX_AZIMUTHS],
+            curve_sum: 0.0,
             filter: CurveFilter::new(),
             front: FrontEnd::new(dec, c.input_guard(dec.factor())),
             picker: c.peak_picker(fs),
@@ -170,7 +174,6 @@ impl Bench {
     fn similarity(&mut self) {
         let q = self.table.num_azimuths();
         let curve = &mut self.curve[..q];
-        curve.fill(0.0);
         let mut weight_sum = 0.0f32;
         let mut used = [PeakFeature {
             fi: 0,
@@ -197,34 +200,29 @@ impl Bench {
             n_used += 1;
             weight_sum += 1.0;
         }
-        // The default grid tracker's refinement curve comes out of the same pass.
-        let power = LocatorConfig::default().refine_distance_power();
+        // The default kernel and, if the default has one, the refinement curve in the same pass.
+        let c = LocatorConfig::default();
+        let refine = c.refine_distance_power();
         let distance = &mut self.distance[..q];
-        distance.fill(0.0);
-        let sums = power.map(|power| DistanceSum {
-            power,
-            curve: &mut *distance,
-        });
-        self.curves.accumulate_peaks_with_distance(
+        self.curves.frame_curve(
             &mut self.row_cache,
             &self.table,
             &used[..n_used],
+            c.kernel,
+            refine,
             curve,
-            sums,
+            distance,
         );
-        let inv = 1.0 / weight_sum;
-        for c in curve.iter_mut() {
-            *c *= inv;
-        }
-        for v in distance.iter_mut() {
-            *v *= -inv;
-        }
+        self.curve_sum =
+            normalise_frame_curve(c.kernel, refine.is_some(), weight_sum, curve, distance);
     }
 
     fn reliability(&mut self) {
         let c = LocatorConfig::default();
         let curve = black_box(&self.curve[..self.table.num_azimuths()]);
-        let b = c.reliability.coefficient(curve_variance(curve));
+        let b = c
+            .reliability
+            .coefficient(curve_variance_with_sum(curve, black_box(self.curve_sum)));
         black_box(argmax_parabolic(curve, self.table.azimuths_deg()));
         let filtered = self.filter.update(b, curve);
         black_box(argmax_parabolic(filtered, self.table.azimuths_deg()));
