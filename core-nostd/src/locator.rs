@@ -726,7 +726,7 @@ mod tests {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
         assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
-        let mut bad = [LocatorConfig::default(); 8];
+        let mut bad = [LocatorConfig::default(); 9];
         bad[0].band_hi_hz = 100.0;
         bad[1].num_peaks = 0;
         bad[2].noise_gate.full_db = bad[2].noise_gate.open_db;
@@ -749,6 +749,10 @@ mod tests {
             enabled: true,
             high_db: -2.0,
             ..crate::frame_onset::FrameOnset::OFF
+        };
+        bad[8].kernel = crate::curve_kernel::CurveKernel::Distance {
+            power: crate::refine_curve::DistancePower::Two,
+            scale: f32::NAN,
         };
         for (i, c) in bad.into_iter().enumerate() {
             assert!(

@@ -236,7 +236,8 @@ pub fn options_table(
 mod tests {
     use super::*;
     use cma_core::config::Tracking;
-    use cma_core::refine_curve::RefineCurve;
+    use cma_core::curve_kernel::CurveKernel;
+    use cma_core::refine_curve::{DistancePower, RefineCurve};
 
     #[test]
     fn flags_reach_the_config_and_defaults_are_untouched() {
@@ -272,6 +273,29 @@ mod tests {
             assert_eq!(t.refine_curve, want, "{flag}");
         }
         assert!(variant_config(&[], "--refine-curve distance3").is_err());
+        // The curve kernel: the default's d^1.5, the thesis's reciprocal, and the scale.
+        let dist = |power, scale| CurveKernel::Distance { power, scale };
+        for (flags, want) in [
+            ("", dist(DistancePower::ThreeHalves, 1.5)),
+            ("--kernel reciprocal", CurveKernel::Reciprocal),
+            ("--kernel distance", dist(DistancePower::One, 1.5)),
+            (
+                "--kernel distance2 --kernel-scale 3",
+                dist(DistancePower::Two, 3.0),
+            ),
+            ("--kernel-scale 2", dist(DistancePower::ThreeHalves, 2.0)),
+            ("--preset thesis", CurveKernel::Reciprocal),
+            (
+                "--preset thesis --kernel distance1.5",
+                dist(DistancePower::ThreeHalves, 1.5),
+            ),
+        ] {
+            let (c, _) = variant_config(&[], flags).unwrap();
+            assert_eq!(c.kernel, want, "{flags}");
+        }
+        assert!(variant_config(&[], "--kernel reciprocal --kernel-scale 2").is_err());
+        assert!(variant_config(&[], "--preset thesis --kernel-scale 2").is_err());
+        assert!(variant_config(&[], "--kernel distance3").is_err());
         assert!(variant_config(&[], "--quality loudness").is_err());
         assert!(variant_config(&[], "--fdiv-std -1").is_err());
         for (_, extra) in VARIANTS {
