@@ -81,48 +81,6 @@ pub fn pow_three_halves_nonneg2(x: [f32; 2]) -> [f32; 2] {
     }
 }
 
-/// [`pow_three_halves_nonneg2`] of one value.
-#[inline(always)]
-#[must_use]
-pub fn pow_three_halves_nonneg(x: f32) -> f32 {
-    let x = clamp_nonneg(x);
-    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
-    {
-        vpow3_2_one(x)
-    }
-    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
-    {
-        let d = libm::sqrtf(x);
-        d * libm::sqrtf(d)
-    }
-}
-
-/// √x·√√x of one value on the FPU (borrowing `s0` and `s1`, see [`vsqrt2`]).
-#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
-#[inline(always)]
-#[allow(unsafe_code)]
-fn vpow3_2_one(x: f32) -> f32 {
-    let y: u32;
-    // Note(unsafe): register-only FPU code, as in `vsqrt2`.
-    unsafe {
-        core::arch::asm!(
-            "vmov {t0}, {t1}, s0, s1",
-            "vmov s0, {x}",
-            "vsqrt.f32 s0, s0",
-            "vsqrt.f32 s1, s0",
-            "vmul.f32 s0, s0, s1",
-            "vmov {y}, s0",
-            "vmov s0, s1, {t0}, {t1}",
-            x = in(reg) x.to_bits(),
-            y = lateout(reg) y,
-            t0 = out(reg) _,
-            t1 = out(reg) _,
-            options(pure, nomem, nostack, preserves_flags)
-        );
-    }
-    f32::from_bits(y)
-}
-
 /// √x·√√x of two values on the FPU (see [`vsqrt2`] for how the block borrows FPU registers; this
 /// one borrows `s0`…`s3`).
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
@@ -215,11 +173,6 @@ mod tests {
             let want = d * sqrtf(d);
             assert_eq!(
                 pow_three_halves_nonneg2([x, x])[1].to_bits(),
-                want.to_bits(),
-                "{x:e}"
-            );
-            assert_eq!(
-                pow_three_halves_nonneg(x).to_bits(),
                 want.to_bits(),
                 "{x:e}"
             );

@@ -3,8 +3,7 @@
 
 use crate::curve_kernel::CurveKernel;
 use crate::fast_math::{
-    clamp_nonneg, pow_three_halves_nonneg, pow_three_halves_nonneg2, sqrt_nonneg, sqrt_nonneg2,
-    sqrtf, sqrtf2,
+    clamp_nonneg, pow_three_halves_nonneg2, sqrt_nonneg, sqrt_nonneg2, sqrtf, sqrtf2,
 };
 use crate::features::FeatureKind;
 use crate::noisy_reference::{nearest_in, NoiseMixing, NoisyReferences, LUT_LEN};
@@ -445,27 +444,34 @@ impl CurveBuilder {
         };
         let n = curve.len().min(ds.curve.len());
         let (curve, dist) = (&mut curve[..n], &mut ds.curve[..n]);
-        // One instance per power, so that the loop holds no branch on it.
+        if ds.sums_only {
+            self.power_loop::<G, false>(cache, noise_mag, ys, weights, curve, dist, ds.power);
+        } else {
+            self.power_loop::<G, true>(cache, noise_mag, ys, weights, curve, dist, ds.power);
+        }
+    }
+
+    /// [`CurveBuilder::group_loop`] with distance sums of power `power`: one instance per power, so
+    /// that the loop holds no branch on it.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn power_loop<const G: usize, const S: bool>(
+        &self,
+        cache: &RowCache,
+        noise_mag: Feature,
+        ys: [Feature; G],
+        weights: [f32; G],
+        curve: &mut [f32],
+        dist: &mut [f32],
+        power: DistancePower,
+    ) {
         let (c, w) = (cache, noise_mag);
-        match (ds.sums_only, ds.power) {
-            (false, DistancePower::One) => {
-                self.group_loop::<G, true, true, 2>(c, w, ys, weights, curve, dist)
+        match power {
+            DistancePower::One => self.group_loop::<G, S, true, 2>(c, w, ys, weights, curve, dist),
+            DistancePower::ThreeHalves => {
+                self.group_loop::<G, S, true, 3>(c, w, ys, weights, curve, dist)
             }
-            (false, DistancePower::ThreeHalves) => {
-                self.group_loop::<G, true, true, 3>(c, w, ys, weights, curve, dist)
-            }
-            (false, DistancePower::Two) => {
-                self.group_loop::<G, true, true, 4>(c, w, ys, weights, curve, dist)
-            }
-            (true, DistancePower::One) => {
-                self.group_loop::<G, false, true, 2>(c, w, ys, weights, curve, dist)
-            }
-            (true, DistancePower::ThreeHalves) => {
-                self.group_loop::<G, false, true, 3>(c, w, ys, weights, curve, dist)
-            }
-            (true, DistancePower::Two) => {
-                self.group_loop::<G, false, true, 4>(c, w, ys, weights, curve, dist)
-            }
+            DistancePower::Two => self.group_loop::<G, S, true, 4>(c, w, ys, weights, curve, dist),
         }
     }
 
@@ -529,11 +535,8 @@ impl CurveBuilder {
             if !S && power == DistancePower::ThreeHalves {
                 // Only d^1.5: one FPU block for both powers of a pair.
                 for g in (0..G).step_by(2) {
-                    let p = if g + 1 < G {
-                        pow_three_halves_nonneg2([best[g], best[g + 1]])
-                    } else {
-                        [pow_three_halves_nonneg(best[g]), 0.0]
-                    };
+                    // A lone peak goes through the pair block twice (a group of one is rare).
+                    let p = pow_three_halves_nonneg2([best[g], best[(g + 1).min(G - 1)]]);
                     for (k, h) in (g..G.min(g + 2)).enumerate() {
                         dacc += weights[h] * p[k];
                     }
