@@ -1,5 +1,6 @@
 //! Configuration of the localizer: plain values, fixed while the localizer runs.
 
+use crate::capsule_calibration::CapsuleCalibration;
 use crate::cartesian_filter::Smoothing;
 use crate::combination::{Combination, FdivSpread};
 use crate::curve_kernel::CurveKernel;
@@ -129,6 +130,9 @@ pub struct LocatorConfig {
     pub noise_gate: NoiseGate,
     /// Frame onset weighting of the reliability b (similarity method; not in the thesis).
     pub frame_onset: FrameOnset,
+    /// Blind self-calibration of the cardioids from the diffuse background (similarity method; not
+    /// in the thesis).
+    pub capsule_calibration: CapsuleCalibration,
     /// How the peaks of a frame are combined (§5.1.4: rule 1 mean curve, rule 2 eq. 5.13).
     pub combination: Combination,
     /// Where b filters: the similarity curve (eq. 5.31) or the result in Cartesian form (eq. 5.30).
@@ -175,6 +179,7 @@ impl LocatorConfig {
             quality: FrameQuality::DEFAULT,
             noise_gate: NoiseGate::OFF,
             frame_onset: FrameOnset::OFF,
+            capsule_calibration: CapsuleCalibration::OFF,
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,
@@ -251,6 +256,7 @@ impl Default for LocatorConfig {
         c.noise_gate = DEFAULT_NOISE_GATE;
         c.features = FeatureKind::Active;
         c.frame_onset = DEFAULT_FRAME_ONSET;
+        c.capsule_calibration = CapsuleCalibration::OFF;
         c
     }
 }

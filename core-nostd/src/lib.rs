@@ -39,6 +39,7 @@ pub mod angle;
 pub mod beamformer;
 pub mod bformat;
 pub mod block_decimator;
+pub mod capsule_calibration;
 pub mod cartesian_filter;
 pub mod combination;
 pub mod config;

@@ -28,6 +28,7 @@ use crate::interpolation::argmax_parabolic;
 use crate::noise_floor::NoiseFloor;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::{PeakPicker, Peaks};
+use crate::capsule_calibration::{CapsuleCalibrationState, CapsuleEstimate};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance_with_sum, CurveFilter};
 use crate::similarity::{normalise_frame_curve, CurveBuilder, PeakFeature, RowCache};
@@ -88,6 +89,14 @@ pub struct Locator<'t> {
     noise_floor: NoiseFloor,
     /// Power history for the frame onset weight.
     frame_onset: FrameOnsetState,
+    /// Blind self-calibration of the cardioids.
+    capsules: CapsuleCalibrationState,
+    /// The estimate the self-calibration starts from at every reset.
+    capsule_start: CapsuleEstimate,
+    /// Frame power over the noise floor up to which a frame is background (linear).
+    background_ratio: f32,
+    /// Consecutive frames near the noise floor (saturating).
+    quiet_frames: u16,
 }
 
 impl<'t> Locator<'t> {
@@ -165,6 +174,10 @@ impl<'t> Locator<'t> {
             cartesian: CartesianFilter::new(),
             noise_floor: NoiseFloor::idle(),
             frame_onset: FrameOnsetState::idle(),
+            capsules: CapsuleCalibrationState::idle(),
+            capsule_start: CapsuleEstimate::IDEAL,
+            background_ratio: 1.0,
+            quiet_frames: 0,
             have_history: false,
             last_azimuth: 0.0,
             last_hop_energy: (u32::MAX, 0.0),
@@ -203,7 +216,13 @@ impl<'t> Locator<'t> {
         self.noise_floor =
             NoiseFloor::new(&config.noise_gate, self.analysis_rate() as f32 / HOP as f32);
         self.frame_onset = FrameOnsetState::new(&config.frame_onset);
+        self.capsules = CapsuleCalibrationState::new(
+            config.capsule_calibration,
+            self.analysis_rate() as f32,
+            &self.capsule_start,
+        );
         self.have_history = false;
+        self.quiet_frames = 0;
         self.last_azimuth = 0.0;
         self.last_hop_energy = (u32::MAX, 0.0);
         self.diagnostics = FrameDiagnostics::default();
@@ -271,6 +290,11 @@ impl<'t> Locator<'t> {
                 "frame onset: history 1…8 frames, finite low < high, floor in [0, 1]",
             ));
         }
+        if c.capsule_calibration.enabled && !c.capsule_calibration.is_valid() {
+            return Err(Error::InvalidConfig(
+                "self-calibration: finite background dB ≥ 0, memory ≥ 1 frame, prior ≥ 0, anisotropy > 0",
+            ));
+        }
         if !c.kernel.is_valid() {
             return Err(Error::InvalidConfig("kernel: need a finite scale > 0"));
         }
@@ -302,6 +326,8 @@ impl<'t> Locator<'t> {
         self.row_cache.clear();
         self.bin_rows = bin_rows;
         self.offset2 = offset2;
+        self.background_ratio =
+            crate::power_ramp::power_ratio_from_db(c.capsule_calibration.background_db);
         self.front.reset(decimator, guard);
         Ok(())
     }
@@ -354,6 +380,30 @@ impl<'t> Locator<'t> {
         self.diagnostics
     }
 
+    /// The self-calibration's current estimate of the cardioids (ideal, with no evidence, when
+    /// the stage is off).
+    #[must_use]
+    pub fn capsule_estimate(&self) -> &CapsuleEstimate {
+        self.capsules.estimate()
+    }
+
+    /// The self-calibration's confidence in [0, 1] (its least certain band; 0 when off).
+    #[must_use]
+    pub fn capsule_confidence(&self) -> f32 {
+        if self.config.capsule_calibration.enabled {
+            self.capsules.confidence()
+        } else {
+            0.0
+        }
+    }
+
+    /// Sets the estimate the self-calibration starts from (a saved [`CapsuleEstimate`]) and applies
+    /// it now; it also survives every later reset. Implausible bands start ideal.
+    pub fn set_capsule_estimate(&mut self, start: &CapsuleEstimate) {
+        self.capsule_start = *start;
+        self.capsules.restore(start);
+    }
+
     /// Feeds a block of sample frames (channel order omni, card 0°, card 120°, card 240°; full scale ±1)
     /// and calls `on_estimate` for every analysis frame completed within it.
     pub fn process_block(
@@ -399,17 +449,35 @@ impl<'t> Locator<'t> {
 
         let (azimuth, raw, confidence) = match self.config.method {
             Method::Similarity => {
-                let gate = if self.config.noise_gate.enabled {
-                    gate * self.noise_floor.update(frame_power)
+                let calibrating = self.config.capsule_calibration.enabled;
+                let gate = if self.config.noise_gate.enabled || calibrating {
+                    let open = self.noise_floor.update(frame_power);
+                    if self.config.noise_gate.enabled {
+                        gate * open
+                    } else {
+                        gate
+                    }
                 } else {
                     gate
                 };
+                // Background: a clean frame whose power is near the noise floor.
+                let quiet = usable
+                    && !flags.contains(Flags::CLIPPED)
+                    && frame_power <= self.noise_floor.floor() * self.background_ratio;
+                self.quiet_frames = if quiet {
+                    self.quiet_frames.saturating_add(1)
+                } else {
+                    0
+                };
+                let background = calibrating
+                    && quiet
+                    && u32::from(self.quiet_frames) > self.config.capsule_calibration.hangover_frames;
                 let onset = if self.config.frame_onset.enabled {
                     self.frame_onset.update(frame_power)
                 } else {
                     1.0
                 };
-                self.similarity_frame(gate, onset, &mut flags)
+                self.similarity_frame(gate, onset, background, frame_power, &mut flags)
             }
             Method::Fdiv | Method::Tdiv => {
                 let iv = self.intensity_frame(usable);
@@ -486,7 +554,14 @@ impl<'t> Locator<'t> {
     /// Similarity method on the current frame; returns (azimuth, raw azimuth, b). `onset` is the
     /// frame onset weight (1 when it is off): it scales b everywhere except in the tracker's
     /// velocity estimate (why: [`crate::frame_onset`]).
-    fn similarity_frame(&mut self, gate: f32, onset: f32, flags: &mut Flags) -> (f32, f32, f32) {
+    fn similarity_frame(
+        &mut self,
+        gate: f32,
+        onset: f32,
+        background: bool,
+        frame_power: f32,
+        flags: &mut Flags,
+    ) -> (f32, f32, f32) {
         let q = self.table.num_azimuths();
         let fs = self.decimator.output_rate() as f32;
         windowed_spectrum(
@@ -541,6 +616,12 @@ impl<'t> Locator<'t> {
                 let [_, f1, f2, f3] = &self.spectra;
                 dft_bins3([f1, f2, f3], k)
             };
+            let xc = if self.config.capsule_calibration.enabled {
+                self.capsules
+                    .correct(k, self.spectra[0][k], xc, background)
+            } else {
+                xc
+            };
             let Some(y) = self.config.features.of_bin(self.spectra[0][k], p0, xc) else {
                 continue;
             };
@@ -560,6 +641,9 @@ impl<'t> Locator<'t> {
             *slot = PeakFeature { fi, y, weight: w };
             weight_sum += w;
             n_used += 1;
+        }
+        if self.config.capsule_calibration.enabled {
+            self.capsules.end_frame(frame_power);
         }
         self.curves.frame_curve(
             &mut self.row_cache,

@@ -248,6 +248,29 @@ pub struct ConfigArgs {
     /// Frame onset: weight of frames at or below the low rise.
     #[arg(long)]
     pub frame_onset_floor: Option<f32>,
+    /// Blind self-calibration of the cardioids from the diffuse background: on (the default
+    /// preset) or off (the thesis; also off with a measured --table, which already holds the array).
+    #[arg(long, value_enum)]
+    pub selfcal: Option<OnOff>,
+    /// Self-calibration: keep learning (on) or only apply the start estimate of --selfcal-in (off).
+    #[arg(long, value_enum)]
+    pub selfcal_adapt: Option<OnOff>,
+    /// Self-calibration: a frame is background up to this many dB above the noise floor.
+    #[arg(long)]
+    pub selfcal_background_db: Option<f32>,
+    /// Self-calibration: per-peak sampling variance times margin that a deviation from the ideal
+    /// capsule must clear before it is corrected.
+    #[arg(long)]
+    pub selfcal_shrinkage: Option<f32>,
+    /// Self-calibration: quiet frames after louder sound before a frame is background.
+    #[arg(long)]
+    pub selfcal_hangover: Option<u32>,
+    /// Self-calibration: memory in background frames.
+    #[arg(long)]
+    pub selfcal_memory: Option<f32>,
+    /// Self-calibration: largest anisotropy of a background batch that is still learned from.
+    #[arg(long)]
+    pub selfcal_anisotropy: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long)]
     pub directness: Option<f32>,
@@ -434,6 +457,27 @@ impl ConfigArgs {
         }
         if let Some(v) = self.frame_onset_floor {
             c.frame_onset.floor = v;
+        }
+        if let Some(v) = self.selfcal {
+            c.capsule_calibration.enabled = v == OnOff::On;
+        }
+        if let Some(v) = self.selfcal_adapt {
+            c.capsule_calibration.adapt = v == OnOff::On;
+        }
+        if let Some(v) = self.selfcal_background_db {
+            c.capsule_calibration.background_db = v;
+        }
+        if let Some(v) = self.selfcal_shrinkage {
+            c.capsule_calibration.shrinkage = v;
+        }
+        if let Some(v) = self.selfcal_hangover {
+            c.capsule_calibration.hangover_frames = v;
+        }
+        if let Some(v) = self.selfcal_memory {
+            c.capsule_calibration.memory_frames = v;
+        }
+        if let Some(v) = self.selfcal_anisotropy {
+            c.capsule_calibration.max_anisotropy = v;
         }
         if let Some(v) = self.directness {
             c.direct_sound.directness_exponent = v;

@@ -23,6 +23,7 @@ pub mod options_eval;
 pub mod plots;
 pub mod scene;
 pub mod score;
+pub mod selfcal_file;
 pub mod serial_link;
 pub mod signal;
 pub mod stdout_text;
@@ -92,6 +93,12 @@ pub struct LocateArgs {
     /// Channel layout of the input.
     #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
     pub input_layout: InputLayout,
+    /// Start the self-calibration from this saved estimate (written by --selfcal-out).
+    #[arg(long)]
+    pub selfcal_in: Option<PathBuf>,
+    /// Write the self-calibration's final estimate here (to start the next run, or the board, from).
+    #[arg(long)]
+    pub selfcal_out: Option<PathBuf>,
     /// Localizer configuration.
     #[command(flatten)]
     pub config: ConfigArgs,
@@ -235,8 +242,28 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
     let table = a.config.table(measured.as_ref())?;
     let mut stream = wav_io::RecordingStream::open(&a.input, a.input_layout)?;
     let pb = progress_bar(stream.declared_frames() as u64);
-    let rows = locate::locate_stream(&mut stream, config, table, |n| pb.inc(n as u64))?;
+    let start = match &a.selfcal_in {
+        Some(path) => Some(selfcal_file::read(path)?),
+        None => None,
+    };
+    let located = locate::locate_stream_calibrated(&mut stream, config, table, start.as_ref(), |n| {
+        pb.inc(n as u64)
+    })?;
     pb.finish_and_clear();
+    let rows = located.rows;
+    if config.capsule_calibration.enabled {
+        eprint!(
+            "{}",
+            selfcal_file::summary(&located.capsules, located.capsule_confidence)
+        );
+        if let Some(path) = &a.selfcal_out {
+            selfcal_file::write(path, &located.capsules)?;
+        }
+    } else if a.selfcal_out.is_some() {
+        return Err(SimError::Usage(
+            "--selfcal-out: the self-calibration is off (--selfcal off, the thesis preset or a measured table)".into(),
+        ));
+    }
     match &a.csv {
         Some(path) => wav_io::write_atomically(path, |tmp| {
             let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;

@@ -4,6 +4,7 @@
 use crate::error::{Result, SimError};
 use crate::fixed_decimal::write_fixed;
 use crate::wav_io::{Recording, RecordingStream};
+use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
 use std::io::Write;
 
@@ -43,18 +44,48 @@ pub fn locate_stream(
     stream: &mut RecordingStream,
     config: LocatorConfig,
     table: ReferenceTable<'_>,
-    mut progress: impl FnMut(usize),
+    progress: impl FnMut(usize),
 ) -> Result<Vec<Row>> {
+    Ok(locate_stream_calibrated(stream, config, table, None, progress)?.rows)
+}
+
+/// What [`locate_stream_calibrated`] returns: the rows and the self-calibration at the end.
+#[derive(Debug, Clone)]
+pub struct Located {
+    /// One row per analysis frame.
+    pub rows: Vec<Row>,
+    /// The self-calibration's estimate after the last frame.
+    pub capsules: CapsuleEstimate,
+    /// Its confidence in [0, 1] (0 when the stage is off).
+    pub capsule_confidence: f32,
+}
+
+/// [`locate_stream`] with the self-calibration starting from `start` (ideal when `None`),
+/// returning its final estimate too.
+pub fn locate_stream_calibrated(
+    stream: &mut RecordingStream,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+    start: Option<&CapsuleEstimate>,
+    mut progress: impl FnMut(usize),
+) -> Result<Located> {
     let mut run = Run::new(
         config,
         table,
         stream.rate(),
         stream.declared_frames() / 256 + 1,
     )?;
+    if let Some(start) = start {
+        run.loc.set_capsule_estimate(start);
+    }
     loop {
         let chunk = stream.next_chunk()?;
         if chunk.is_empty() {
-            return Ok(run.rows);
+            return Ok(Located {
+                capsules: *run.loc.capsule_estimate(),
+                capsule_confidence: run.loc.capsule_confidence(),
+                rows: run.rows,
+            });
         }
         run.feed(chunk, &mut progress);
     }

@@ -1,0 +1,686 @@
+//! Blind self-calibration of the cardioid capsules from the room's ambient (diffuse) sound field.
+//!
+//! # Model
+//! A real first-order capsule m (look φ_m) sees, at one frequency,
+//!
+//! X_m = a_m·W + b_m·D_m,  D_m = X cos φ_m + Y sin φ_m,
+//!
+//! with W the omni (the reference, X_0 = W) and X, Y the horizontal dipole components of the field:
+//! a_m = g_m(1 − β_m) is the capsule's omni part and b_m = g_m·β_m its dipole part (gain g_m, pattern
+//! β_m; the ideal cardioid has a = b = ½). Every feature the locator compares assumes the ideal
+//! capsule, so the stage maps each picked bin's cardioid values back to it:
+//!
+//! X'_m = ½·W + ½·D_m = c1_m·X_m + c0_m·W,  c1_m = ½/b_m,  c0_m = ½ − ½·a_m/b_m.
+//!
+//! # Estimate
+//! In an isotropic diffuse field — the ambient noise and the late reverberation every room has —
+//! W, X and Y are mutually uncorrelated and E|D_m|² = κ·E|W|² (κ = ⅓ in 3-D). Then, from the
+//! cross-powers of the frames in which only the background is heard (frame power near the tracked
+//! noise floor), per frequency band:
+//!
+//! * a_m = E[Re(X_m W*)] / E|W|² (the dipole part does not correlate with the omni);
+//! * R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n = κ·b_m·b_n·cos(φ_m − φ_n) = −½κ·b_m·b_n for m ≠ n,
+//!   so the ratios of the b_m follow from the three off-diagonal products alone — uncorrelated
+//!   capsule self-noise, which only adds to the diagonal, does not bias them. Their common scale
+//!   is not measurable from picked peaks (see [`BandSums::solve`]) and does not matter for the
+//!   direction: it is set so that Σb = Σa.
+//!
+//! The diagonal checks the field: for an isotropic field every normalised R_mn / √(R_mm·R_nn) is
+//! −½ whatever the capsules, while a directional noise source (a fan, a loudspeaker) adds a rank-one
+//! part that moves them. When they stray by more than [`CapsuleCalibration::max_anisotropy`] the
+//! background is not diffuse, and the accepted estimate is kept as it was (no drift toward the noise
+//! source). Speech frames are never used, so a talker, static or moving, cannot pull the estimate.
+//! Only the ratios of b matter for the direction (a common factor is the same as a lower SNR, which
+//! the noisy references absorb), so an error in κ costs nothing.
+//!
+//! # Confidence
+//! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
+//! falls as 1/√n. Its deviations from the ideal capsule are applied only in so far as they clear
+//! that error (a positive-part James–Stein factor per group of deviations, see
+//! [`CapsuleCalibration::shrinkage`]): a cold start begins ideal, an ideal array stays
+//! uncorrected, and a real imperfection is corrected more fully as the evidence grows. The
+//! reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
+//!
+//! State: per band 10 sums and a count (≈ 0.2 KB in all); [`CapsuleEstimate`] (the model and its
+//! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
+//! the correction; on background frames ten cross-products per peak and one band's solution.
+
+use crate::{CARDIOIDS, NUM_BINS};
+use microfft::Complex32;
+
+/// Number of frequency bands with their own capsule model.
+pub const CAL_BANDS: usize = 4;
+
+/// Upper edges of the bands, Hz (the last band runs to Nyquist).
+pub const CAL_BAND_EDGES_HZ: [f32; CAL_BANDS - 1] = [500.0, 1000.0, 2000.0];
+
+/// Background peaks per band at which the confidence is ½.
+pub const CONFIDENT_PEAKS: f32 = 1000.0;
+
+/// E|D_m|² / E|W|² assumed for the diffuse field (3-D isotropic).
+const KAPPA: f32 = 1.0 / 3.0;
+
+/// Settings of the self-calibration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CapsuleCalibration {
+    /// Whether the stage runs (estimates and corrects).
+    pub enabled: bool,
+    /// Whether the estimate keeps learning (off: the start estimate is applied as it is).
+    pub adapt: bool,
+    /// A frame is background when its power is at most this many dB above the noise floor.
+    pub background_db: f32,
+    /// Frames near the noise floor that must pass after louder sound (its reverberation) before
+    /// a frame counts as background.
+    pub hangover_frames: u32,
+    /// Memory of the estimate, in background frames (forgetting factor 1 − 1/frames).
+    pub memory_frames: f32,
+    /// Sampling variance of one background peak's contribution to the estimate, times the margin
+    /// a deviation from the ideal capsule must clear (see [`CapsuleCalibrationState`]): larger
+    /// values correct later and only larger imperfections.
+    pub shrinkage: f32,
+    /// Largest deviation of a normalised cross-power from −½ for which the background counts as
+    /// diffuse.
+    pub max_anisotropy: f32,
+}
+
+impl CapsuleCalibration {
+    /// The stage off: features from the raw capsule signals (the thesis).
+    pub const OFF: Self = Self {
+        enabled: false,
+        adapt: true,
+        background_db: 3.0,
+        hangover_frames: 0,
+        memory_frames: 3000.0,
+        shrinkage: 0.1,
+        max_anisotropy: 0.05,
+    };
+
+    /// The product's settings.
+    pub const DEFAULT: Self = Self {
+        enabled: true,
+        ..Self::OFF
+    };
+
+    /// Whether the settings are usable.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.background_db.is_finite()
+            && self.background_db >= 0.0
+            && self.memory_frames.is_finite()
+            && self.memory_frames >= 1.0
+            && self.shrinkage.is_finite()
+            && self.shrinkage >= 0.0
+            && self.max_anisotropy.is_finite()
+            && self.max_anisotropy > 0.0
+    }
+}
+
+/// One band's capsule model: X_m = a_m·W + b_m·D_m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BandModel {
+    /// Omni part a_m of each cardioid.
+    pub omni_part: [f32; CARDIOIDS],
+    /// Dipole part b_m of each cardioid.
+    pub dipole_part: [f32; CARDIOIDS],
+    /// Background peaks behind the estimate (forgetting count n).
+    pub peaks: f32,
+}
+
+impl BandModel {
+    /// The ideal cardioid, with no evidence.
+    pub const IDEAL: Self = Self {
+        omni_part: [0.5; CARDIOIDS],
+        dipole_part: [0.5; CARDIOIDS],
+        peaks: 0.0,
+    };
+
+    /// Gain g = a + b of cardioid `m`, dB.
+    #[must_use]
+    pub fn gain_db(&self, m: usize) -> f32 {
+        20.0 * libm::log10f(self.omni_part[m] + self.dipole_part[m])
+    }
+
+    /// Pattern β = b / (a + b) of cardioid `m`.
+    #[must_use]
+    pub fn beta(&self, m: usize) -> f32 {
+        self.dipole_part[m] / (self.omni_part[m] + self.dipole_part[m])
+    }
+
+    /// Whether the values are a plausible first-order capsule (finite, 0.05 < a, b < 2, n ≥ 0).
+    #[must_use]
+    pub fn is_plausible(&self) -> bool {
+        let ok = |v: f32| v > 0.05 && v < 2.0;
+        self.omni_part.iter().chain(&self.dipole_part).all(|v| ok(*v))
+            && self.peaks >= 0.0
+            && self.peaks.is_finite()
+    }
+}
+
+/// The self-calibration's estimate for every band: what is reported, saved and restored.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CapsuleEstimate {
+    /// The accepted model per band (lowest band first, edges [`CAL_BAND_EDGES_HZ`]).
+    pub bands: [BandModel; CAL_BANDS],
+    /// Whether the last background check found the field anisotropic (estimate held).
+    pub held: bool,
+}
+
+impl CapsuleEstimate {
+    /// Ideal capsules, no evidence.
+    pub const IDEAL: Self = Self {
+        bands: [BandModel::IDEAL; CAL_BANDS],
+        held: false,
+    };
+
+    /// The confidence n/(n + [`CONFIDENT_PEAKS`]) of band `band`, from its count n of background
+    /// peaks: ½ where the omni parts' sampling error is about 0.01.
+    #[must_use]
+    pub fn confidence(&self, band: usize) -> f32 {
+        let n = self.bands[band].peaks;
+        n / (n + CONFIDENT_PEAKS)
+    }
+}
+
+/// Cross-power sums of one band (normalised by frame power, with forgetting).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BandSums {
+    /// Σ|W|².
+    ww: f32,
+    /// Σ Re(X_m W*).
+    xw: [f32; CARDIOIDS],
+    /// Σ Re(X_m X_n*): (0,0), (1,1), (2,2), (0,1), (0,2), (1,2).
+    xx: [f32; 6],
+    /// Forgetting count of peaks.
+    n: f32,
+}
+
+impl BandSums {
+    const ZERO: Self = Self {
+        ww: 0.0,
+        xw: [0.0; CARDIOIDS],
+        xx: [0.0; 6],
+        n: 0.0,
+    };
+
+    /// Sums a model would give with unit omni power per peak (restoring a saved estimate).
+    fn of_model(m: &BandModel) -> Self {
+        let (a, b, n) = (m.omni_part, m.dipole_part, m.peaks);
+        let r = |i: usize, j: usize| {
+            let cross = if i == j { KAPPA } else { -0.5 * KAPPA };
+            n * (a[i] * a[j] + cross * b[i] * b[j])
+        };
+        Self {
+            ww: n,
+            xw: a.map(|v| n * v),
+            xx: [r(0, 0), r(1, 1), r(2, 2), r(0, 1), r(0, 2), r(1, 2)],
+            n,
+        }
+    }
+
+    fn add_scaled(&mut self, other: &Self, keep: f32, scale: f32) {
+        self.ww = keep * self.ww + scale * other.ww;
+        for m in 0..CARDIOIDS {
+            self.xw[m] = keep * self.xw[m] + scale * other.xw[m];
+        }
+        for k in 0..6 {
+            self.xx[k] = keep * self.xx[k] + scale * other.xx[k];
+        }
+        self.n = keep * self.n + other.n;
+    }
+
+    /// The normalised cross-powers R_mn / √(R_mm·R_nn) of the pairs (0,1), (0,2), (1,2) (−½ each in
+    /// a diffuse field), or `None` without usable sums.
+    fn correlations(&self) -> Option<[f32; 3]> {
+        if !(self.ww > 0.0) {
+            return None;
+        }
+        let inv = 1.0 / self.ww;
+        let a = self.xw.map(|v| v * inv);
+        let r = |k: usize, i: usize, j: usize| self.xx[k] * inv - a[i] * a[j];
+        let diag = [r(0, 0, 0), r(1, 1, 1), r(2, 2, 2)];
+        if !diag.iter().all(|v| *v > 0.0) {
+            return None;
+        }
+        let sq = crate::fast_math::sqrtf;
+        let rho = [
+            r(3, 0, 1) / sq(diag[0] * diag[1]),
+            r(4, 0, 2) / sq(diag[0] * diag[2]),
+            r(5, 1, 2) / sq(diag[1] * diag[2]),
+        ];
+        rho.iter().all(|v| v.is_finite()).then_some(rho)
+    }
+
+    /// The model of these sums, with its anisotropy, or `None` when they do not describe a
+    /// first-order capsule in a diffuse field.
+    fn solve(&self) -> Option<(BandModel, f32)> {
+        if !(self.ww > 0.0) || !(self.n > 0.0) {
+            return None;
+        }
+        let inv = 1.0 / self.ww;
+        let a = self.xw.map(|v| v * inv);
+        let r = |k: usize, i: usize, j: usize| self.xx[k] * inv - a[i] * a[j];
+        let diag = [r(0, 0, 0), r(1, 1, 1), r(2, 2, 2)];
+        let off = [r(3, 0, 1), r(4, 0, 2), r(5, 1, 2)];
+        // b_i·b_j = −2·R_ij/κ.
+        let p = off.map(|v| -2.0 * v / KAPPA);
+        if !p.iter().all(|v| *v > 0.0) || !diag.iter().all(|v| *v > 0.0) {
+            return None;
+        }
+        let sq = crate::fast_math::sqrtf;
+        let b = [
+            sq(p[0] * p[1] / p[2]),
+            sq(p[0] * p[2] / p[1]),
+            sq(p[1] * p[2] / p[0]),
+        ];
+        // The peaks are the bins where |W| stands out, so E|W|² over them exceeds the field's and
+        // scales every b_m·b_n alike: only the ratios of b are measured. A common factor of the
+        // dipole parts acts like a change of SNR (the noisy references absorb it); it is set so
+        // that the patterns average a cardioid, Σb = Σa.
+        let scale = (a[0] + a[1] + a[2]) / (b[0] + b[1] + b[2]);
+        let b = b.map(|v| v * scale);
+        let pairs = [(0, 1), (0, 2), (1, 2)];
+        let mut anisotropy = 0.0f32;
+        for (k, (i, j)) in pairs.iter().enumerate() {
+            let rho = off[k] / sq(diag[*i] * diag[*j]);
+            anisotropy = anisotropy.max((rho + 0.5).abs());
+        }
+        let model = BandModel {
+            omni_part: a,
+            dipole_part: b,
+            peaks: self.n,
+        };
+        (model.is_plausible() && anisotropy.is_finite()).then_some((model, anisotropy))
+    }
+}
+
+/// Per-band correction X'_m = c1_m·X_m + c0_m·W.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Correction {
+    c1: [f32; CARDIOIDS],
+    c0: [f32; CARDIOIDS],
+}
+
+impl Correction {
+    const IDENTITY: Self = Self {
+        c1: [1.0; CARDIOIDS],
+        c0: [0.0; CARDIOIDS],
+    };
+
+    /// The correction for `model`, each group of its deviations from the ideal capsule shrunk by
+    /// how far it clears its sampling noise `shrinkage`·dof/n (positive-part James–Stein): the
+    /// common gain (1 degree of freedom), the omni parts about their mean and the dipole parts
+    /// about it (2 each).
+    fn of(model: &BandModel, shrinkage: f32) -> Self {
+        let n = model.peaks;
+        if !(n > 0.0) {
+            return Self::IDENTITY;
+        }
+        let a = model.omni_part;
+        let b = model.dipole_part;
+        let mean = (a[0] + a[1] + a[2]) / 3.0;
+        let noise = shrinkage / n;
+        let factor = |sq: f32, dof: f32| {
+            if sq > 0.0 {
+                (1.0 - noise * dof / sq).max(0.0)
+            } else {
+                0.0
+            }
+        };
+        let da = a.map(|v| v - mean);
+        let db = b.map(|v| v - mean);
+        let sum_sq = |d: [f32; 3]| d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let common = mean - 0.5;
+        let s_common = factor(3.0 * common * common, 1.0);
+        let s_a = factor(sum_sq(da), 2.0);
+        let s_b = factor(sum_sq(db), 2.0);
+        let base = 0.5 + s_common * common;
+        let mut c = Self::IDENTITY;
+        for m in 0..CARDIOIDS {
+            let am = base + s_a * da[m];
+            let bm = base + s_b * db[m];
+            c.c1[m] = 0.5 / bm;
+            c.c0[m] = 0.5 - 0.5 * am / bm;
+        }
+        c
+    }
+}
+
+/// State of the self-calibration.
+#[derive(Debug, Clone)]
+pub struct CapsuleCalibrationState {
+    settings: CapsuleCalibration,
+    /// Band of each bin.
+    bin_band: [u8; NUM_BINS],
+    /// The accepted long-term sums.
+    sums: [BandSums; CAL_BANDS],
+    /// The batch of background frames since the last merge, not yet checked for diffuseness.
+    batch: [BandSums; CAL_BANDS],
+    /// Background frames in the batch.
+    batch_frames: u32,
+    /// This frame's sums, before normalisation by the frame power.
+    frame: [BandSums; CAL_BANDS],
+    frame_used: bool,
+    accepted: CapsuleEstimate,
+    correction: [Correction; CAL_BANDS],
+    forget: f32,
+}
+
+/// The batch is checked every this many background frames.
+const CHECK_FRAMES: u32 = 16;
+/// A batch that passed its check joins the long-term sums at this many background frames.
+const BATCH_FRAMES: u32 = 128;
+
+impl CapsuleCalibrationState {
+    /// An idle state (the stage off).
+    #[must_use]
+    pub const fn idle() -> Self {
+        Self {
+            settings: CapsuleCalibration::OFF,
+            bin_band: [0; NUM_BINS],
+            sums: [BandSums::ZERO; CAL_BANDS],
+            batch: [BandSums::ZERO; CAL_BANDS],
+            batch_frames: 0,
+            frame: [BandSums::ZERO; CAL_BANDS],
+            frame_used: false,
+            accepted: CapsuleEstimate::IDEAL,
+            correction: [Correction::IDENTITY; CAL_BANDS],
+            forget: 1.0,
+        }
+    }
+
+    /// A fresh state for `settings` at analysis rate `fs` Hz, starting from `start`.
+    #[must_use]
+    pub fn new(settings: CapsuleCalibration, fs: f32, start: &CapsuleEstimate) -> Self {
+        let mut s = Self::idle();
+        s.settings = settings;
+        for (k, band) in s.bin_band.iter_mut().enumerate() {
+            let f = crate::spectrum::bin_frequency(k, fs);
+            *band = CAL_BAND_EDGES_HZ.iter().filter(|e| f >= **e).count() as u8;
+        }
+        s.forget = 1.0 - 1.0 / settings.memory_frames;
+        s.restore(start);
+        s
+    }
+
+    /// Replaces the estimate with `start` (a saved one): the sums are set to what the model gives
+    /// with its count of peaks. Implausible bands start ideal.
+    pub fn restore(&mut self, start: &CapsuleEstimate) {
+        self.accepted = CapsuleEstimate::IDEAL;
+        for (band, model) in start.bands.iter().enumerate() {
+            if model.is_plausible() {
+                self.accepted.bands[band] = *model;
+            }
+            self.sums[band] = BandSums::of_model(&self.accepted.bands[band]);
+            self.update_correction(band);
+        }
+        self.frame = [BandSums::ZERO; CAL_BANDS];
+        self.frame_used = false;
+        self.batch = [BandSums::ZERO; CAL_BANDS];
+        self.batch_frames = 0;
+    }
+
+    fn update_correction(&mut self, band: usize) {
+        self.correction[band] = Correction::of(&self.accepted.bands[band], self.settings.shrinkage);
+    }
+
+    /// The accepted estimate.
+    #[must_use]
+    pub fn estimate(&self) -> &CapsuleEstimate {
+        &self.accepted
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn settings(&self) -> &CapsuleCalibration {
+        &self.settings
+    }
+
+    /// The overall confidence: the smallest band confidence.
+    #[must_use]
+    pub fn confidence(&self) -> f32 {
+        (0..CAL_BANDS)
+            .map(|b| self.accepted.confidence(b))
+            .fold(1.0, f32::min)
+    }
+
+    /// Corrects the cardioid values `x` of bin `k` (omni `w`) to the ideal capsule; with
+    /// `background`, first adds the raw cross-powers to this frame's sums.
+    #[inline]
+    pub fn correct(
+        &mut self,
+        k: usize,
+        w: Complex32,
+        x: [Complex32; CARDIOIDS],
+        background: bool,
+    ) -> [Complex32; CARDIOIDS] {
+        let band = self.bin_band.get(k).copied().unwrap_or(0) as usize % CAL_BANDS;
+        if background {
+            let re = |p: Complex32, q: Complex32| p.re * q.re + p.im * q.im;
+            let s = &mut self.frame[band];
+            s.ww += w.re * w.re + w.im * w.im;
+            for m in 0..CARDIOIDS {
+                s.xw[m] += re(x[m], w);
+            }
+            s.xx[0] += re(x[0], x[0]);
+            s.xx[1] += re(x[1], x[1]);
+            s.xx[2] += re(x[2], x[2]);
+            s.xx[3] += re(x[0], x[1]);
+            s.xx[4] += re(x[0], x[2]);
+            s.xx[5] += re(x[1], x[2]);
+            s.n += 1.0;
+            self.frame_used = true;
+        }
+        let c = &self.correction[band];
+        let mut out = x;
+        for m in 0..CARDIOIDS {
+            out[m] = Complex32::new(
+                c.c1[m] * x[m].re + c.c0[m] * w.re,
+                c.c1[m] * x[m].im + c.c0[m] * w.im,
+            );
+        }
+        out
+    }
+
+    /// Ends a frame: a background frame's sums (of frame power `power`) join the batch. Every
+    /// [`CHECK_FRAMES`] background frames the batch is checked: an anisotropic batch (a directional
+    /// background) is dropped and the estimate held; a diffuse one updates the estimate, and joins
+    /// the long-term sums once it holds [`BATCH_FRAMES`] frames.
+    pub fn end_frame(&mut self, power: f32) {
+        if !self.frame_used {
+            return;
+        }
+        self.frame_used = false;
+        let frame = core::mem::replace(&mut self.frame, [BandSums::ZERO; CAL_BANDS]);
+        if !self.settings.adapt || !(power > 0.0) || !power.is_finite() {
+            return;
+        }
+        let inv = 1.0 / power;
+        for (s, add) in self.batch.iter_mut().zip(&frame) {
+            s.add_scaled(add, 1.0, inv);
+        }
+        self.batch_frames += 1;
+        if self.batch_frames % CHECK_FRAMES != 0 {
+            return;
+        }
+        if self.batch_anisotropy() > self.settings.max_anisotropy {
+            self.accepted.held = true;
+            self.batch = [BandSums::ZERO; CAL_BANDS];
+            self.batch_frames = 0;
+            return;
+        }
+        self.accepted.held = false;
+        let merge = self.batch_frames >= BATCH_FRAMES;
+        let keep = libm::powf(self.forget, self.batch_frames as f32);
+        for band in 0..CAL_BANDS {
+            let mut total = self.sums[band];
+            total.add_scaled(&self.batch[band], keep, 1.0);
+            if merge {
+                self.sums[band] = total;
+            }
+            if let Some((model, _)) = total.solve() {
+                self.accepted.bands[band] = model;
+                self.update_correction(band);
+            }
+        }
+        if merge {
+            self.batch = [BandSums::ZERO; CAL_BANDS];
+            self.batch_frames = 0;
+        }
+    }
+
+    /// How far the batch's normalised cross-powers, pooled over the bands (weighted by their
+    /// peaks), stray from the diffuse −½, less their sampling error; +∞ without data.
+    fn batch_anisotropy(&self) -> f32 {
+        let mut pooled = [0.0f32; 3];
+        let mut n = 0.0f32;
+        for s in &self.batch {
+            if let Some(rho) = s.correlations() {
+                for (p, r) in pooled.iter_mut().zip(rho) {
+                    *p += s.n * r;
+                }
+                n += s.n;
+            }
+        }
+        if !(n > 0.0) {
+            return f32::INFINITY;
+        }
+        let worst = pooled
+            .iter()
+            .map(|p| (p / n + 0.5).abs())
+            .fold(0.0f32, f32::max);
+        // Sampling standard deviation of a correlation of −½: (1 − ¼)/√n; two of them pass.
+        worst - 1.5 / crate::fast_math::sqrtf(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Lcg;
+
+    /// Circular complex Gaussian sample of variance `var` (Box–Muller).
+    fn cn(rng: &mut Lcg, var: f32) -> Complex32 {
+        let u = 1.0 - rng.unit();
+        let r = libm::sqrtf(-var * libm::logf(u));
+        let t = 2.0 * core::f32::consts::PI * rng.unit();
+        Complex32::new(r * libm::cosf(t), r * libm::sinf(t))
+    }
+
+    /// Diffuse field through capsules with omni parts `a` and dipole parts `b`, plus a directional
+    /// source of relative power `directional` from `dir_deg`.
+    fn feed(
+        st: &mut CapsuleCalibrationState,
+        a: [f32; 3],
+        b: [f32; 3],
+        directional: f32,
+        dir_deg: f32,
+        frames: usize,
+        seed: u32,
+    ) {
+        let mut rng = Lcg(seed);
+        for _ in 0..frames {
+            for k in [10usize, 30, 60, 120] {
+                let mut w = cn(&mut rng, 1.0);
+                let mut x = cn(&mut rng, KAPPA);
+                let mut y = cn(&mut rng, KAPPA);
+                if directional > 0.0 {
+                    let s = cn(&mut rng, directional);
+                    let t = dir_deg.to_radians();
+                    w += s;
+                    x += s * libm::cosf(t);
+                    y += s * libm::sinf(t);
+                }
+                let xs = [0.0f32, 120.0, 240.0].map(|l| {
+                    let l = l.to_radians();
+                    x * libm::cosf(l) + y * libm::sinf(l)
+                });
+                let c = [0, 1, 2].map(|m| w * a[m] + xs[m] * b[m]);
+                st.correct(k, w, c, true);
+            }
+            st.end_frame(1.0);
+        }
+    }
+
+    fn settings() -> CapsuleCalibration {
+        CapsuleCalibration {
+            memory_frames: 1e6,
+            ..CapsuleCalibration::DEFAULT
+        }
+    }
+
+    #[test]
+    fn learns_gains_and_patterns_in_a_diffuse_field() {
+        let a = [0.55f32, 0.42, 0.5];
+        let b = [0.45f32, 0.6, 0.52];
+        let mut st = CapsuleCalibrationState::new(settings(), 12_000.0, &CapsuleEstimate::IDEAL);
+        feed(&mut st, a, b, 0.0, 0.0, 20_000, 3);
+        for band in st.estimate().bands {
+            for m in 0..3 {
+                assert!((band.omni_part[m] - a[m]).abs() < 0.02, "{band:?}");
+                assert!((band.dipole_part[m] - b[m]).abs() < 0.03, "{band:?}");
+            }
+        }
+        assert!(st.confidence() > 0.95);
+        // The correction maps the capsule back to the ideal cardioid.
+        let w = Complex32::new(0.3, -0.2);
+        let d = Complex32::new(-0.1, 0.25);
+        let x = [0, 1, 2].map(|m| w * a[m] + d * b[m]);
+        let y = st.correct(30, w, x, false);
+        for m in 0..3 {
+            let want = w * 0.5 + d * 0.5;
+            assert!((y[m] - want).norm_sqr() < 4e-4, "{m}: {:?} vs {want:?}", y[m]);
+        }
+    }
+
+    #[test]
+    fn stays_ideal_on_an_ideal_array_and_holds_against_a_directional_source() {
+        let mut st = CapsuleCalibrationState::new(settings(), 12_000.0, &CapsuleEstimate::IDEAL);
+        feed(&mut st, [0.5; 3], [0.5; 3], 0.0, 0.0, 20_000, 5);
+        let before = *st.estimate();
+        for band in before.bands {
+            for m in 0..3 {
+                assert!((band.omni_part[m] - 0.5).abs() < 0.01);
+                assert!((band.dipole_part[m] - 0.5).abs() < 0.02);
+            }
+        }
+        // A loud directional source: the check refuses the field and the estimate stays.
+        let mut held = st.clone();
+        feed(&mut held, [0.5; 3], [0.5; 3], 2.0, 70.0, 20_000, 6);
+        assert!(held.estimate().held);
+        for (b0, b1) in before.bands.iter().zip(&held.estimate().bands) {
+            for m in 0..3 {
+                assert!((b0.omni_part[m] - b1.omni_part[m]).abs() < 0.02, "{b1:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn cold_start_is_ideal_and_a_saved_estimate_restores() {
+        let st = CapsuleCalibrationState::new(settings(), 12_000.0, &CapsuleEstimate::IDEAL);
+        let w = Complex32::new(1.0, 0.5);
+        let x = [Complex32::new(0.2, 0.1); 3];
+        let mut st2 = st.clone();
+        assert_eq!(st2.correct(40, w, x, false), x);
+        assert_eq!(st.confidence(), 0.0);
+        let mut saved = CapsuleEstimate::IDEAL;
+        saved.bands[1].omni_part = [0.45, 0.55, 0.5];
+        saved.bands[1].dipole_part = [0.5, 0.48, 0.56];
+        saved.bands[1].peaks = 5000.0;
+        let st = CapsuleCalibrationState::new(settings(), 12_000.0, &saved);
+        let got = st.estimate().bands[1];
+        assert_eq!(got, saved.bands[1]);
+        let (m, aniso) = st.sums[1].solve().unwrap();
+        assert!(aniso < 1e-4);
+        for i in 0..3 {
+            assert!((m.omni_part[i] - saved.bands[1].omni_part[i]).abs() < 1e-5);
+            assert!((m.dipole_part[i] - saved.bands[1].dipole_part[i]).abs() < 1e-5);
+        }
+        // Nonsense is not restored.
+        let mut bad = saved;
+        bad.bands[2].omni_part[0] = f32::NAN;
+        let st = CapsuleCalibrationState::new(settings(), 12_000.0, &bad);
+        assert_eq!(st.estimate().bands[2], BandModel::IDEAL);
+    }
+}
