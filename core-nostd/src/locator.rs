@@ -93,10 +93,6 @@ pub struct Locator<'t> {
     capsules: CapsuleCalibrationState,
     /// The estimate the self-calibration starts from at every reset.
     capsule_start: CapsuleEstimate,
-    /// Frame power over the noise floor up to which a frame is background (linear).
-    background_ratio: f32,
-    /// Consecutive frames near the noise floor (saturating).
-    quiet_frames: u16,
 }
 
 impl<'t> Locator<'t> {
@@ -176,8 +172,6 @@ impl<'t> Locator<'t> {
             frame_onset: FrameOnsetState::idle(),
             capsules: CapsuleCalibrationState::idle(),
             capsule_start: CapsuleEstimate::IDEAL,
-            background_ratio: 1.0,
-            quiet_frames: 0,
             have_history: false,
             last_azimuth: 0.0,
             last_hop_energy: (u32::MAX, 0.0),
@@ -219,10 +213,10 @@ impl<'t> Locator<'t> {
         self.capsules = CapsuleCalibrationState::new(
             config.capsule_calibration,
             self.analysis_rate() as f32,
+            self.analysis_rate() as f32 / HOP as f32,
             &self.capsule_start,
         );
         self.have_history = false;
-        self.quiet_frames = 0;
         self.last_azimuth = 0.0;
         self.last_hop_energy = (u32::MAX, 0.0);
         self.diagnostics = FrameDiagnostics::default();
@@ -326,8 +320,6 @@ impl<'t> Locator<'t> {
         self.row_cache.clear();
         self.bin_rows = bin_rows;
         self.offset2 = offset2;
-        self.background_ratio =
-            crate::power_ramp::power_ratio_from_db(c.capsule_calibration.background_db);
         self.front.reset(decimator, guard);
         Ok(())
     }
@@ -449,35 +441,18 @@ impl<'t> Locator<'t> {
 
         let (azimuth, raw, confidence) = match self.config.method {
             Method::Similarity => {
-                let calibrating = self.config.capsule_calibration.enabled;
-                let gate = if self.config.noise_gate.enabled || calibrating {
-                    let open = self.noise_floor.update(frame_power);
-                    if self.config.noise_gate.enabled {
-                        gate * open
-                    } else {
-                        gate
-                    }
+                let gate = if self.config.noise_gate.enabled {
+                    gate * self.noise_floor.update(frame_power)
                 } else {
                     gate
                 };
-                // Background: a clean frame whose power is near the noise floor.
-                let quiet = usable
-                    && !flags.contains(Flags::CLIPPED)
-                    && frame_power <= self.noise_floor.floor() * self.background_ratio;
-                self.quiet_frames = if quiet {
-                    self.quiet_frames.saturating_add(1)
-                } else {
-                    0
-                };
-                let background = calibrating
-                    && quiet
-                    && u32::from(self.quiet_frames) > self.config.capsule_calibration.hangover_frames;
+                let clean = usable && !flags.contains(Flags::CLIPPED);
                 let onset = if self.config.frame_onset.enabled {
                     self.frame_onset.update(frame_power)
                 } else {
                     1.0
                 };
-                self.similarity_frame(gate, onset, background, frame_power, &mut flags)
+                self.similarity_frame(gate, onset, clean, &mut flags)
             }
             Method::Fdiv | Method::Tdiv => {
                 let iv = self.intensity_frame(usable);
@@ -558,8 +533,7 @@ impl<'t> Locator<'t> {
         &mut self,
         gate: f32,
         onset: f32,
-        background: bool,
-        frame_power: f32,
+        clean: bool,
         flags: &mut Flags,
     ) -> (f32, f32, f32) {
         let q = self.table.num_azimuths();
@@ -583,6 +557,11 @@ impl<'t> Locator<'t> {
             *p = power(*c);
         }
         self.picker.process(&self.omni_power, &mut self.peaks);
+        let calibrating = self.config.capsule_calibration.enabled;
+        if calibrating {
+            let (lo, hi) = self.picker.band();
+            self.capsules.begin_frame(&self.omni_power, lo, hi, clean);
+        }
 
         let ds: DirectSound = self.config.direct_sound;
         let curve = &mut self.curve[..q];
@@ -616,9 +595,8 @@ impl<'t> Locator<'t> {
                 let [_, f1, f2, f3] = &self.spectra;
                 dft_bins3([f1, f2, f3], k)
             };
-            let xc = if self.config.capsule_calibration.enabled {
-                self.capsules
-                    .correct(k, self.spectra[0][k], xc, background)
+            let xc = if calibrating {
+                self.capsules.correct(k, self.spectra[0][k], xc)
             } else {
                 xc
             };
@@ -642,8 +620,9 @@ impl<'t> Locator<'t> {
             weight_sum += w;
             n_used += 1;
         }
-        if self.config.capsule_calibration.enabled {
-            self.capsules.end_frame(frame_power);
+        if calibrating {
+            let talker = self.have_history.then_some(self.last_azimuth);
+            self.capsules.end_frame(talker);
         }
         self.curves.frame_curve(
             &mut self.row_cache,

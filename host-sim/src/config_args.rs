@@ -262,9 +262,6 @@ pub struct ConfigArgs {
     /// capsule must clear before it is corrected.
     #[arg(long)]
     pub selfcal_shrinkage: Option<f32>,
-    /// Self-calibration: quiet frames after louder sound before a frame is background.
-    #[arg(long)]
-    pub selfcal_hangover: Option<u32>,
     /// Self-calibration: memory in background frames.
     #[arg(long)]
     pub selfcal_memory: Option<f32>,
@@ -469,9 +466,6 @@ impl ConfigArgs {
         }
         if let Some(v) = self.selfcal_shrinkage {
             c.capsule_calibration.shrinkage = v;
-        }
-        if let Some(v) = self.selfcal_hangover {
-            c.capsule_calibration.hangover_frames = v;
         }
         if let Some(v) = self.selfcal_memory {
             c.capsule_calibration.memory_frames = v;

@@ -104,7 +104,7 @@ pub fn parse(text: &str, path: &Path) -> Result<CapsuleEstimate> {
         if !model.is_plausible() {
             return Err(bad(
                 i + 1,
-                "not a plausible capsule (need 0.05 < a, b < 2 and peaks ≥ 0)".into(),
+                "not a plausible cardioid (need 0.3 < a, b < 0.75 and peaks ≥ 0)".into(),
             ));
         }
         est.bands[band] = model;
