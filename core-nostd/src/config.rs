@@ -256,7 +256,7 @@ impl Default for LocatorConfig {
         c.noise_gate = DEFAULT_NOISE_GATE;
         c.features = FeatureKind::Active;
         c.frame_onset = DEFAULT_FRAME_ONSET;
-        c.capsule_calibration = CapsuleCalibration::OFF;
+        c.capsule_calibration = CapsuleCalibration::DEFAULT;
         c
     }
 }

@@ -11,6 +11,7 @@
 //! block size the DMA delivers.
 
 use crate::angle::wrap_deg;
+use crate::capsule_calibration::{CapsuleCalibrationState, CapsuleEstimate};
 use crate::cartesian_filter::{CartesianFilter, Smoothing};
 use crate::combination::{fdiv_bin_spread, per_peak_estimate, Combination};
 use crate::config::{LocatorConfig, Method, Tracking};
@@ -28,7 +29,6 @@ use crate::interpolation::argmax_parabolic;
 use crate::noise_floor::NoiseFloor;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::{PeakPicker, Peaks};
-use crate::capsule_calibration::{CapsuleCalibrationState, CapsuleEstimate};
 use crate::reference_table::ReferenceTable;
 use crate::reliability::{curve_variance_with_sum, CurveFilter};
 use crate::similarity::{normalise_frame_curve, CurveBuilder, PeakFeature, RowCache};
@@ -620,10 +620,6 @@ impl<'t> Locator<'t> {
             weight_sum += w;
             n_used += 1;
         }
-        if calibrating {
-            let talker = self.have_history.then_some(self.last_azimuth);
-            self.capsules.end_frame(talker);
-        }
         self.curves.frame_curve(
             &mut self.row_cache,
             &self.table,
@@ -640,6 +636,8 @@ impl<'t> Locator<'t> {
 
         let mut b = gate;
         let variance;
+        // The reliability of the frame's curve, before any gate.
+        let mut curve_reliability = 0.0;
         if n_used == 0 || !(weight_sum > 0.0) {
             flags.insert(Flags::NO_PEAKS);
             curve.fill(0.0);
@@ -649,7 +647,8 @@ impl<'t> Locator<'t> {
         } else {
             let sum = normalise_frame_curve(kernel, power.is_some(), weight_sum, curve, distance);
             variance = curve_variance_with_sum(curve, sum);
-            b *= self.config.reliability.coefficient(variance);
+            curve_reliability = self.config.reliability.coefficient(variance);
+            b *= curve_reliability;
             // Issue 6: alternative frame quality measures / binary b (frame_quality.rs).
             if !self.config.quality.is_default() {
                 b = gate
@@ -662,6 +661,13 @@ impl<'t> Locator<'t> {
                         self.peaks.bins(),
                     );
             }
+        }
+        if calibrating {
+            // A background whose curve points somewhere is directional: not learned from.
+            let directional =
+                curve_reliability > self.config.capsule_calibration.directional_reliability;
+            let talker = self.have_history.then_some(self.last_azimuth);
+            self.capsules.end_frame(talker, directional);
         }
         let motion_b = b;
         if self.config.frame_onset.enabled {

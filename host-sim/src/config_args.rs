@@ -262,6 +262,9 @@ pub struct ConfigArgs {
     /// capsule must clear before it is corrected.
     #[arg(long)]
     pub selfcal_shrinkage: Option<f32>,
+    /// Self-calibration: frames whose curve reliability exceeds this are not learned from.
+    #[arg(long)]
+    pub selfcal_directional: Option<f32>,
     /// Self-calibration: memory in background frames.
     #[arg(long)]
     pub selfcal_memory: Option<f32>,
@@ -466,6 +469,9 @@ impl ConfigArgs {
         }
         if let Some(v) = self.selfcal_shrinkage {
             c.capsule_calibration.shrinkage = v;
+        }
+        if let Some(v) = self.selfcal_directional {
+            c.capsule_calibration.directional_reliability = v;
         }
         if let Some(v) = self.selfcal_memory {
             c.capsule_calibration.memory_frames = v;

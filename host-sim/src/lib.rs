@@ -246,9 +246,10 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
         Some(path) => Some(selfcal_file::read(path)?),
         None => None,
     };
-    let located = locate::locate_stream_calibrated(&mut stream, config, table, start.as_ref(), |n| {
-        pb.inc(n as u64)
-    })?;
+    let located =
+        locate::locate_stream_calibrated(&mut stream, config, table, start.as_ref(), |n| {
+            pb.inc(n as u64)
+        })?;
     pb.finish_and_clear();
     let rows = located.rows;
     if config.capsule_calibration.enabled {

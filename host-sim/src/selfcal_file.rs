@@ -116,7 +116,7 @@ pub fn parse(text: &str, path: &Path) -> Result<CapsuleEstimate> {
     Ok(est)
 }
 
-/// Reads a file written by [`write`].
+/// Reads a file written by [`write()`].
 pub fn read(path: &Path) -> Result<CapsuleEstimate> {
     let meta = std::fs::metadata(path).map_err(|e| SimError::io(path, e))?;
     if meta.is_file() && meta.len() > 64 * 1024 {
@@ -196,8 +196,15 @@ mod tests {
         assert!(parse("hello\n", p).is_err());
         let nan = format(&est).replace("0.450000", "NaN");
         assert!(parse(&nan, p).unwrap_err().to_string().contains("NaN"));
-        let missing: String = format(&est).lines().take(4).map(|l| format!("{l}\n")).collect();
-        assert!(parse(&missing, p).unwrap_err().to_string().contains("missing"));
+        let missing: String = format(&est)
+            .lines()
+            .take(4)
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert!(parse(&missing, p)
+            .unwrap_err()
+            .to_string()
+            .contains("missing"));
         let absurd = format(&est).replace("0.450000", "7");
         assert!(parse(&absurd, p).is_err());
     }
