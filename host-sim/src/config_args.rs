@@ -458,6 +458,11 @@ impl ConfigArgs {
         if let Some(v) = self.frame_onset_floor {
             c.frame_onset.floor = v;
         }
+        // A measured table already describes the real capsules: the self-calibration (which maps
+        // them to the ideal model) is off with one unless asked for.
+        if self.table.is_some() {
+            c.capsule_calibration.enabled = false;
+        }
         if let Some(v) = self.selfcal {
             c.capsule_calibration.enabled = v == OnOff::On;
         }
