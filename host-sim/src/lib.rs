@@ -12,6 +12,7 @@ pub mod config_args;
 pub mod distance_eval;
 pub mod emit;
 pub mod error;
+pub mod estimate_output;
 pub mod eval;
 pub mod fixed_decimal;
 pub mod ground_truth;
@@ -20,6 +21,7 @@ pub mod manifest;
 pub mod metrics;
 pub mod monitor;
 pub mod options_eval;
+pub mod output_file;
 pub mod plots;
 pub mod scene;
 pub mod score;
@@ -207,7 +209,7 @@ where
         {
             return stdout_text::print_text(&e.to_string());
         }
-        Err(e) => return Err(SimError::Usage(e.render().to_string())),
+        Err(e) => return Err(SimError::Cli(e)),
     };
     match cli.command {
         Command::Locate(a) => cmd_locate(&a),

@@ -73,7 +73,7 @@ pub fn locate_stream_calibrated(
         config,
         table,
         stream.rate(),
-        stream.declared_frames() / 256 + 1,
+        stream.capacity_frames() / 256 + 1,
     )?;
     if let Some(start) = start {
         run.loc.set_capsule_estimate(start);
