@@ -126,7 +126,7 @@ pub fn read(path: &Path) -> Result<CapsuleEstimate> {
             meta.len()
         )));
     }
-    let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, e))?;
+    let text = crate::text_file::read(path)?;
     parse(&text, path)
 }
 
@@ -196,8 +196,15 @@ mod tests {
         assert!(parse("hello\n", p).is_err());
         let nan = format(&est).replace("0.450000", "NaN");
         assert!(parse(&nan, p).unwrap_err().to_string().contains("NaN"));
-        let missing: String = format(&est).lines().take(4).map(|l| format!("{l}\n")).collect();
-        assert!(parse(&missing, p).unwrap_err().to_string().contains("missing"));
+        let missing: String = format(&est)
+            .lines()
+            .take(4)
+            .map(|l| format!("{l}\n"))
+            .collect();
+        assert!(parse(&missing, p)
+            .unwrap_err()
+            .to_string()
+            .contains("missing"));
         let absurd = format(&est).replace("0.450000", "7");
         assert!(parse(&absurd, p).is_err());
     }
