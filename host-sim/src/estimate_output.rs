@@ -187,7 +187,7 @@ mod tests {
             (s.frames, s.with_history, s.leading_without_history),
             (4, 2, 2)
         );
-        assert!((s.mean_confidence - 0.15).abs() < 1e-9);
+        assert!((s.mean_confidence - 0.15).abs() < 1e-6);
         let line = s.line();
         assert!(line.contains("2 with history (50.0 %)"), "{line}");
         assert!(line.contains("the first 2 carry NO_HISTORY"), "{line}");

@@ -105,8 +105,8 @@ pub enum Command {
 pub struct LocateArgs {
     /// Input WAV (4 channels); a pipe or /dev/stdin works too.
     pub input: PathBuf,
-    /// Write the estimates here instead of stdout.
-    #[arg(long)]
+    /// Write the estimates to this file instead of stdout (in --format; `--out` is the same flag).
+    #[arg(long, visible_alias = "out")]
     pub csv: Option<PathBuf>,
     /// Format of the estimates.
     #[arg(long, value_enum, default_value_t = estimate_output::Format::Csv)]
