@@ -908,7 +908,6 @@ mod tests {
             flags: 0x1F,
             overruns: 12,
             dropped: 3456,
-            ..Frame::default()
         };
         let counters = Counters {
             frames: 9_999_999,
@@ -946,7 +945,7 @@ mod tests {
             }
             let has_rose = lines.iter().any(|l| l.contains('@'));
             assert_eq!(has_rose, cols >= 80 && rows >= 24, "{cols}×{rows}");
-            assert_eq!(lines.iter().any(|l| *l == LEGEND), has_rose);
+            assert_eq!(lines.contains(&LEGEND), has_rose);
             assert!(lines.last().unwrap().starts_with("no valid frames"));
             if has_rose {
                 // Title, blank, 17 rows of rose, legend, status.
