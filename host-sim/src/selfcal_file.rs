@@ -116,7 +116,7 @@ pub fn parse(text: &str, path: &Path) -> Result<CapsuleEstimate> {
     Ok(est)
 }
 
-/// Reads a file written by [`write`].
+/// Reads a file written by [`write()`].
 pub fn read(path: &Path) -> Result<CapsuleEstimate> {
     let meta = std::fs::metadata(path).map_err(|e| SimError::io(path, e))?;
     if meta.is_file() && meta.len() > 64 * 1024 {
