@@ -121,11 +121,14 @@ impl Summary {
              mean confidence {:.3}",
             self.frames, self.audio_s, self.elapsed_s, self.with_history, self.mean_confidence
         );
-        if self.leading_without_history > 0 {
+        let carry = match self.leading_without_history {
+            0 => None,
+            1 => Some("the first frame carries".to_string()),
+            n => Some(format!("the first {n} carry")),
+        };
+        if let Some(carry) = carry {
             s.push_str(&format!(
-                "; the first {} carry NO_HISTORY (flags 16): no reliable frame yet, azimuth \
-                 is the start value",
-                self.leading_without_history
+                "; {carry} NO_HISTORY (flags 16): no reliable frame yet, azimuth is the start value"
             ));
         }
         s
