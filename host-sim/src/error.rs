@@ -5,7 +5,10 @@ use std::path::PathBuf;
 /// A host-sim failure.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    /// Command-line usage error (clap prints its own help).
+    /// A command line clap rejected; its text (starting with `error:`) includes the usage and a hint.
+    #[error("{0}")]
+    Cli(#[from] clap::Error),
+    /// A flag value that parsed but makes no sense (a usage error, like [`SimError::Cli`]).
     #[error("{0}")]
     Usage(String),
     /// A file could not be opened, read or written.
@@ -74,6 +77,16 @@ pub enum SimError {
 }
 
 impl SimError {
+    /// Exit status for this error: 2 for usage errors (as clap's), 1 for the rest.
+    #[must_use]
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            SimError::Cli(e) => u8::try_from(e.exit_code()).unwrap_or(2),
+            SimError::Usage(_) => 2,
+            _ => 1,
+        }
+    }
+
     /// Wraps an I/O error with its path.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         SimError::Io {

@@ -73,7 +73,7 @@ pub fn locate_stream_calibrated(
         config,
         table,
         stream.rate(),
-        stream.declared_frames() / 256 + 1,
+        stream.capacity_frames() / 256 + 1,
     )?;
     if let Some(start) = start {
         run.loc.set_capsule_estimate(start);
@@ -173,7 +173,7 @@ pub struct CsvEstimate {
 
 /// Reads an estimate CSV with at least the columns `t_s,azimuth_deg,azimuth_raw_deg,confidence`.
 pub fn read_csv(path: &std::path::Path) -> Result<Vec<CsvEstimate>> {
-    let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, e))?;
+    let text = crate::text_file::read(path)?;
     let bad = |line: usize, reason: String| SimError::BadCsv {
         path: path.to_path_buf(),
         line,
@@ -213,6 +213,14 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<CsvEstimate>> {
                 .ok()
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| bad(i + 1, format!("`{}` is not a number", f[j])))
+                .and_then(|v| {
+                    // Azimuths and confidence are single precision in the core.
+                    if j != it && v.abs() > f64::from(f32::MAX) {
+                        Err(bad(i + 1, format!("`{}` is outside the f32 range", f[j])))
+                    } else {
+                        Ok(v)
+                    }
+                })
         };
         out.push(CsvEstimate {
             t_s: num(it)?,

@@ -12,8 +12,12 @@
 //!   more, modulo 2³²); a step backwards (by 2³¹ or more, a board restart) counts as a *restart*, a
 //!   repeated `seq` as a *duplicate*, neither as lost;
 //! - *garbage bytes*: bytes outside any line (before a `$`).
+//!
+//! Ctrl-C ends the monitor like `--frames` or `--exit-after-idle` do: the summary is printed and the
+//! record is complete.
 
 use crate::error::{Result, SimError};
+use crate::estimate_output::{flag_names, Format};
 use crate::locate::CSV_HEADER;
 use crate::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
 use cma_core::wire::{self, AssemblerStats, DecodeError, Frame, LineAssembler, MAX_LINE};
@@ -22,10 +26,12 @@ use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// `host-sim monitor`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = MONITOR_AFTER_HELP)]
 pub struct MonitorArgs {
     /// Serial device (e.g. /dev/ttyUSB0, /dev/ttyACM0, or a socat pty).
     #[arg(long)]
@@ -37,11 +43,14 @@ pub struct MonitorArgs {
     /// One text line per frame instead of the live view (automatic when stdout is not a terminal).
     #[arg(long)]
     pub plain: bool,
-    /// Record the frames to this CSV (the columns of `host-sim locate`; power_db is empty: not sent).
+    /// Record the frames to this file (the columns of `host-sim locate`; power_db is empty: not sent).
     #[arg(long)]
     pub record: Option<PathBuf>,
-    /// Exit after this many seconds without a byte (default: run until interrupted).
-    #[arg(long, value_name = "SECONDS")]
+    /// Format of --record: CSV, or one JSON object per line.
+    #[arg(long, value_enum, default_value_t = Format::Csv)]
+    pub format: Format,
+    /// Exit after this many seconds without a byte (default: run until Ctrl-C).
+    #[arg(long, value_name = "SECONDS", value_parser = crate::arg_values::positive_seconds)]
     pub exit_after_idle: Option<f64>,
     /// Exit after this many decoded frames.
     #[arg(long)]
@@ -94,8 +103,22 @@ impl Counters {
     }
 }
 
-/// Bytes without a decoded frame after which the monitor suspects a wrong baud rate.
+/// The end of `monitor --help`.
+const MONITOR_AFTER_HELP: &str =
+    "Live view: the compass rose has 0° up and angles counter-clockwise \
+(90° to the left); @ is the weighted azimuth at the tip of its needle (* when confident, : when \
+not), x the azimuth of the last frame alone, + a tick every 30°, o the array. It needs 80×24; a \
+smaller terminal gets the numbers without the rose. Flags are printed as in the CSV: the decimal \
+sum of 1 SILENT, 2 CLIPPED, 4 NON_FINITE, 8 NO_PEAKS, 16 NO_HISTORY. Ctrl-C ends the monitor with \
+its summary.";
+
+/// Bytes without a decoded frame after which the monitor says why (wrong baud rate or noise).
 pub const WRONG_BAUD_BYTES: u64 = 8 * MAX_LINE as u64;
+
+/// Share of text bytes (printable ASCII, CR, LF) below which bytes without frames look like a wrong
+/// baud rate: the frame lines are ASCII, and at the right rate even a noisy line stays mostly text,
+/// while bytes sampled at the wrong rate spread over all 256 values.
+pub const WRONG_BAUD_TEXT_SHARE: f64 = 0.75;
 
 /// The byte-stream decoder of the monitor: line assembly, decoding, counters. No I/O.
 #[derive(Debug, Clone, Default)]
@@ -105,6 +128,7 @@ pub struct Decoder {
     counters: Counters,
     last_seq: Option<u32>,
     bytes_since_frame: u64,
+    text_since_frame: u64,
     last_error: Option<DecodeError>,
 }
 
@@ -122,12 +146,16 @@ impl Decoder {
             counters,
             last_seq,
             bytes_since_frame,
+            text_since_frame,
             last_error,
             ..
         } = self;
         counters.bytes += bytes.len() as u64;
         for &b in bytes {
             *bytes_since_frame += 1;
+            if b.is_ascii_graphic() || matches!(b, b' ' | b'\r' | b'\n') {
+                *text_since_frame += 1;
+            }
             let Some(line) = asm.push(b) else { continue };
             match wire::decode(line) {
                 Ok(f) => {
@@ -136,6 +164,7 @@ impl Decoder {
                     counters.board_overruns = f.overruns;
                     counters.board_dropped = f.dropped;
                     *bytes_since_frame = 0;
+                    *text_since_frame = 0;
                     on_frame(&f);
                 }
                 Err(e) => {
@@ -180,10 +209,22 @@ impl Decoder {
         self.bytes_since_frame
     }
 
-    /// The wrong-baud hint, when [`WRONG_BAUD_BYTES`] or more arrived without a decoded frame.
+    /// Share of text bytes since the last decoded frame (1 when none arrived).
+    #[must_use]
+    pub fn text_share_since_frame(&self) -> f64 {
+        if self.bytes_since_frame == 0 {
+            1.0
+        } else {
+            self.text_since_frame as f64 / self.bytes_since_frame as f64
+        }
+    }
+
+    /// The wrong-baud hint, when [`WRONG_BAUD_BYTES`] or more arrived without a decoded frame and
+    /// they do not look like text ([`WRONG_BAUD_TEXT_SHARE`]).
     #[must_use]
     pub fn baud_hint(&self, baud: u32) -> Option<String> {
-        (self.bytes_since_frame >= WRONG_BAUD_BYTES).then(|| {
+        let garbled = self.text_share_since_frame() < WRONG_BAUD_TEXT_SHARE;
+        (self.bytes_since_frame >= WRONG_BAUD_BYTES && garbled).then(|| {
             let suggestion = if baud == DEFAULT_BAUD {
                 "check the board's UART setting; common rates: 9600, 57600, 230400, 460800, 921600"
                     .to_string()
@@ -192,6 +233,24 @@ impl Decoder {
             };
             format!(
                 "no valid frames in {} bytes — wrong baud rate? ({suggestion})",
+                self.bytes_since_frame
+            )
+        })
+    }
+}
+
+impl Decoder {
+    /// The hint for many bytes of text without a decoded frame: the baud rate is right but the lines
+    /// do not decode (line noise, or another program's output on the port).
+    #[must_use]
+    pub fn noise_hint(&self) -> Option<String> {
+        let text = self.text_share_since_frame() >= WRONG_BAUD_TEXT_SHARE;
+        (self.bytes_since_frame >= WRONG_BAUD_BYTES && text).then(|| {
+            let why = self
+                .last_error
+                .map_or_else(|| "no frame line".to_string(), |e| format!("last: {e}"));
+            format!(
+                "no valid frames in {} bytes of text — line noise or another sender? ({why})",
                 self.bytes_since_frame
             )
         })
@@ -220,31 +279,21 @@ pub fn plain_line(f: &Frame) -> String {
         .time_s()
         .map_or_else(|| "?".to_string(), |t| format!("{t:.6}"));
     format!(
-        "seq={} t_s={t} az={:.1} raw={:.1} conf={:.3} flags={:02X}{} ovr={} drop={}",
+        "seq={} t_s={t} az={:.1} raw={:.1} conf={:.3} flags={}{} ovr={} drop={}",
         f.seq,
         f64::from(f.azimuth_tenths) / 10.0,
         f64::from(f.raw_tenths) / 10.0,
         f64::from(f.confidence_permille) / 1000.0,
         f.flags,
-        flag_names(f.flags()),
+        bracketed_names(f.flags()),
         f.overruns,
         f.dropped
     )
 }
 
-fn flag_names(flags: Flags) -> String {
-    const NAMES: [(Flags, &str); 5] = [
-        (Flags::SILENT, "SILENT"),
-        (Flags::CLIPPED, "CLIPPED"),
-        (Flags::NON_FINITE, "NON_FINITE"),
-        (Flags::NO_PEAKS, "NO_PEAKS"),
-        (Flags::NO_HISTORY, "NO_HISTORY"),
-    ];
-    let names: Vec<&str> = NAMES
-        .iter()
-        .filter(|(f, _)| flags.contains(*f))
-        .map(|(_, n)| *n)
-        .collect();
+/// `(NAME|NAME)` of the set flags, or nothing.
+fn bracketed_names(flags: Flags) -> String {
+    let names = flag_names(flags);
     if names.is_empty() {
         String::new()
     } else {
@@ -270,29 +319,60 @@ pub fn csv_row(f: &Frame) -> Option<String> {
     ))
 }
 
-/// Writes `--record` rows incrementally, flushed after each row.
+/// One `--record --format jsonl` line: the keys of `locate --format jsonl`, with the values of
+/// [`csv_row`] (`power_db` null: not transmitted). `None` if the frame's sample rate is 0.
+#[must_use]
+pub fn jsonl_row(f: &Frame) -> Option<String> {
+    let t = f.time_s()?;
+    let names: Vec<String> = flag_names(f.flags())
+        .iter()
+        .map(|n| format!("\"{n}\""))
+        .collect();
+    Some(format!(
+        "{{\"frame\":{},\"t_s\":{:.6},\"azimuth_deg\":{:.2},\"azimuth_raw_deg\":{:.2},\
+         \"confidence\":{:.4},\"power_db\":null,\"flags\":{},\"flag_names\":[{}]}}",
+        f.seq,
+        t,
+        f64::from(f.azimuth_tenths) / 10.0,
+        f64::from(f.raw_tenths) / 10.0,
+        f64::from(f.confidence_permille) / 1000.0,
+        f.flags,
+        names.join(",")
+    ))
+}
+
+/// Writes `--record` rows incrementally, flushed after each row. The file is written in place as
+/// the frames come (a FIFO or a symbolic link works like a regular file).
 struct Recorder {
     path: PathBuf,
     out: std::io::BufWriter<std::fs::File>,
+    format: Format,
     skipped_no_rate: u64,
 }
 
 impl Recorder {
-    fn create(path: &Path) -> Result<Recorder> {
+    fn create(path: &Path, format: Format) -> Result<Recorder> {
         let f = std::fs::File::create(path).map_err(|e| SimError::io(path, e))?;
         let mut r = Recorder {
             path: path.to_path_buf(),
             out: std::io::BufWriter::new(f),
+            format,
             skipped_no_rate: 0,
         };
-        writeln!(r.out, "{CSV_HEADER}")
-            .and_then(|()| r.out.flush())
-            .map_err(|e| SimError::io(path, e))?;
+        if format == Format::Csv {
+            writeln!(r.out, "{CSV_HEADER}")
+                .and_then(|()| r.out.flush())
+                .map_err(|e| SimError::io(path, e))?;
+        }
         Ok(r)
     }
 
     fn write(&mut self, f: &Frame) -> Result<()> {
-        let Some(row) = csv_row(f) else {
+        let row = match self.format {
+            Format::Csv => csv_row(f),
+            Format::Jsonl => jsonl_row(f),
+        };
+        let Some(row) = row else {
             self.skipped_no_rate += 1;
             return Ok(());
         };
@@ -410,7 +490,17 @@ struct View<'a> {
     recording: Option<&'a Path>,
 }
 
-fn render(v: &View<'_>) -> String {
+/// Terminal size (columns, rows) the full live view needs: the rose beside the numbers.
+pub const FULL_VIEW: (usize, usize) = (80, 24);
+
+/// Legend of the rose's symbols (fits [`FULL_VIEW`]'s width).
+pub const LEGEND: &str =
+    "@ azimuth (needle * confident, : not)  x last frame alone  + every 30°  o array";
+
+/// Width of the rose column of the full view (the rose and two spaces).
+const ROSE_COLUMN: usize = (4 * ROSE_R + 1 + 8 + 2) as usize;
+
+fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     let (az, raw, conf) = match v.last {
         Some(f) => (
             Some(f64::from(f.azimuth_tenths) / 10.0),
@@ -419,23 +509,22 @@ fn render(v: &View<'_>) -> String {
         ),
         None => (None, None, 0.0),
     };
-    let rose = draw_rose(az, raw, conf);
     let c = &v.counters;
     let mut info: Vec<String> = Vec::new();
     let deg = |x: Option<f64>| x.map_or_else(|| "   --".to_string(), |a| format!("{a:7.1}°"));
     info.push(format!("azimuth     {}", deg(az)));
     info.push(format!("raw (x)     {}", deg(raw)));
-    let bar = (conf * 20.0).round() as usize;
+    let bar = ((conf * 10.0).round() as usize).min(10);
     info.push(format!(
         "confidence  {conf:7.3}  [{}{}]",
         "#".repeat(bar),
-        " ".repeat(20 - bar.min(20))
+        " ".repeat(10 - bar)
     ));
     if let Some(f) = v.last {
         info.push(format!(
-            "flags       {:02X} {}",
+            "flags       {}{}",
             f.flags,
-            flag_names(f.flags())
+            bracketed_names(f.flags())
         ));
         info.push(format!(
             "board time  {} (seq {})",
@@ -452,16 +541,16 @@ fn render(v: &View<'_>) -> String {
     info.push(format!("frames      {:7}", c.frames));
     info.push(format!("corrupt     {:7} lines", c.corrupt_lines));
     info.push(format!(
-        "lost        {:7} frames in {} gaps",
+        "lost        {:7} in {} gaps",
         c.lost_frames, c.gap_events
     ));
     info.push(format!(
-        "board       overruns {}  dropped {}",
+        "board       overruns {} dropped {}",
         c.board_overruns, c.board_dropped
     ));
+    info.push(format!("port        {}", v.port.display()));
     info.push(format!(
-        "port        {} @ {} {}{}",
-        v.port.display(),
+        "            {} baud, {}{}",
         v.baud,
         if v.connected {
             "connected"
@@ -469,7 +558,7 @@ fn render(v: &View<'_>) -> String {
             "DISCONNECTED"
         },
         if v.reopens > 0 {
-            format!(" (reopened {}×)", v.reopens)
+            format!(", reopened {}×", v.reopens)
         } else {
             String::new()
         }
@@ -477,21 +566,59 @@ fn render(v: &View<'_>) -> String {
     if let Some(p) = v.recording {
         info.push(format!("recording   {}", p.display()));
     }
-    let mut out = String::from("\x1b[H");
-    let _ = writeln!(
-        out,
-        "host-sim monitor — cma talker azimuth (0° = cardioid 1, counter-clockwise)\x1b[K"
-    );
-    let _ = writeln!(out, "\x1b[K");
-    for i in 0..rose.len().max(info.len()) {
-        let left = rose.get(i).map_or("", String::as_str);
-        let right = info.get(i).map_or("", String::as_str);
-        let _ = writeln!(out, "{left:<45}  {right}\x1b[K");
+    let mut lines =
+        vec!["host-sim monitor — talker azimuth (0° = cardioid 1, counter-clockwise)".to_string()];
+    if cols >= FULL_VIEW.0 && rows >= FULL_VIEW.1 {
+        let rose = draw_rose(az, raw, conf);
+        lines.push(String::new());
+        for i in 0..rose.len().max(info.len()) {
+            let left = rose.get(i).map_or("", String::as_str);
+            let right = info.get(i).map_or("", String::as_str);
+            lines.push(format!("{left:<w$}{right}", w = ROSE_COLUMN));
+        }
+        lines.push(LEGEND.to_string());
+    } else {
+        lines.extend(info);
     }
-    let _ = writeln!(out, "\x1b[K");
-    let _ = writeln!(out, "{}\x1b[K", v.status.as_deref().unwrap_or(""));
+    lines.push(v.status.clone().unwrap_or_default());
+    // Never wrap (a wrapped line scrolls the view), never scroll: cut to the terminal.
+    let keep = rows.saturating_sub(1).max(1);
+    if lines.len() > keep {
+        let status = lines.pop().unwrap_or_default();
+        lines.truncate(keep - 1);
+        lines.push(status);
+    }
+    let mut out = String::from("\x1b[H");
+    for l in &lines {
+        let cut: String = l.chars().take(cols).collect();
+        let _ = writeln!(out, "{cut}\x1b[K");
+    }
     out.push_str("\x1b[J");
     out
+}
+
+/// The terminal's (columns, rows), or [`FULL_VIEW`] if it cannot be asked.
+fn terminal_size() -> (usize, usize) {
+    console::Term::stdout()
+        .size_checked()
+        .map_or(FULL_VIEW, |(rows, cols)| {
+            (usize::from(cols), usize::from(rows))
+        })
+}
+
+/// Set by Ctrl-C (SIGINT/SIGTERM); the monitor's loop ends on it and prints its summary.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Installs the Ctrl-C handler once per process (later calls, and a handler installed by someone
+/// else, leave the default behaviour: exit without the summary).
+fn catch_interrupt() {
+    static INSTALL: std::sync::Once = std::sync::Once::new();
+    INSTALL.call_once(|| {
+        if let Err(e) = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst)) {
+            eprintln!("monitor: Ctrl-C will not print the summary ({e})");
+        }
+    });
+    INTERRUPTED.store(false, Ordering::SeqCst);
 }
 
 /// Minimum time between two redraws of the live view (at most 20 per second).
@@ -499,17 +626,15 @@ const REDRAW_INTERVAL: Duration = Duration::from_millis(50);
 
 /// Runs `host-sim monitor`.
 pub fn run(a: &MonitorArgs) -> Result<()> {
-    if let Some(s) = a.exit_after_idle {
-        if !(s.is_finite() && s > 0.0) {
-            return Err(SimError::Usage(format!(
-                "--exit-after-idle must be a positive number of seconds, got {s}"
-            )));
-        }
-    }
     let mut link = Link::open(&a.port, a.baud)?;
+    catch_interrupt();
     eprintln!("monitor: opened {} at {} baud", a.port.display(), a.baud);
     let live = !a.plain && std::io::stdout().is_terminal();
-    let mut recorder = a.record.as_deref().map(Recorder::create).transpose()?;
+    let mut recorder = a
+        .record
+        .as_deref()
+        .map(|p| Recorder::create(p, a.format))
+        .transpose()?;
     let mut dec = Decoder::new();
     let mut meter = RateMeter::default();
     let mut last: Option<Frame> = None;
@@ -577,7 +702,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                 was_connected = true;
             }
         }
-        match dec.baud_hint(a.baud) {
+        match dec.baud_hint(a.baud).or_else(|| dec.noise_hint()) {
             Some(h) => {
                 if !hint_shown && !live {
                     eprintln!("monitor: {h}");
@@ -603,8 +728,9 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                 status: status.clone(),
                 recording: a.record.as_deref(),
             };
+            let (cols, rows) = terminal_size();
             let mut out = stdout.lock();
-            let _ = out.write_all(render(&view).as_bytes());
+            let _ = out.write_all(render(&view, cols, rows).as_bytes());
             let _ = out.flush();
             last_draw = Some(now);
         }
@@ -614,6 +740,13 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
             break;
         }
         if a.frames.is_some_and(|n| dec.counters().frames >= n) {
+            break;
+        }
+        if INTERRUPTED.load(Ordering::SeqCst) {
+            if live {
+                println!();
+            }
+            eprintln!("monitor: interrupted");
             break;
         }
     }
@@ -697,6 +830,7 @@ mod tests {
         d.feed(&noise[..100], |_| {});
         assert!(d.baud_hint(9600).is_none());
         d.feed(&noise[100..], |_| {});
+        assert!(d.noise_hint().is_none());
         let hint = d.baud_hint(9600).unwrap();
         assert!(
             hint.contains("wrong baud rate? (try --baud 115200)"),
@@ -729,8 +863,13 @@ mod tests {
         assert_eq!(csv_row(&Frame::default()), None);
         assert_eq!(
             plain_line(&f),
-            "seq=7 t_s=0.154667 az=-123.4 raw=180.0 conf=0.005 flags=12(CLIPPED|NO_HISTORY) ovr=0 drop=0"
+            "seq=7 t_s=0.154667 az=-123.4 raw=180.0 conf=0.005 flags=18(CLIPPED|NO_HISTORY) ovr=0 drop=0"
         );
+        let json: serde_json::Value = serde_json::from_str(&jsonl_row(&f).unwrap()).unwrap();
+        assert_eq!(json["flags"], 18);
+        assert_eq!(json["azimuth_deg"], -123.4);
+        assert_eq!(json["flag_names"][1], "NO_HISTORY");
+        assert!(json["power_db"].is_null());
     }
 
     #[test]
@@ -754,6 +893,83 @@ mod tests {
             status: None,
             recording: None,
         };
-        assert!(render(&v).contains("waiting for frames"));
+        assert!(render(&v, 80, 24).contains("waiting for frames"));
+    }
+
+    #[test]
+    fn live_view_fits_80_by_24_and_degrades_below() {
+        let f = Frame {
+            seq: 123_456,
+            rate_hz: 48000,
+            centre_sample: 48000 * 1000,
+            azimuth_tenths: -1234,
+            raw_tenths: 455,
+            confidence_permille: 870,
+            flags: 0x1F,
+            overruns: 12,
+            dropped: 3456,
+        };
+        let counters = Counters {
+            frames: 9_999_999,
+            corrupt_lines: 1234,
+            lost_frames: 99_999,
+            gap_events: 4321,
+            ..Counters::default()
+        };
+        let v = View {
+            port: Path::new("/dev/serial/by-id/usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0"),
+            baud: 921_600,
+            connected: false,
+            last: Some(&f),
+            counters,
+            reopens: 17,
+            fps: 62.5,
+            status: Some(
+                "no valid frames in 100000 bytes — wrong baud rate? (try --baud 115200)".repeat(2),
+            ),
+            recording: Some(Path::new(
+                "/a/very/long/path/to/the/recording/of/this/session.csv",
+            )),
+        };
+        for (cols, rows) in [(80, 24), (60, 20), (40, 12), (20, 5)] {
+            let text = render(&v, cols, rows);
+            let lines: Vec<&str> = text
+                .trim_start_matches("\x1b[H")
+                .trim_end_matches("\x1b[J")
+                .split_terminator('\n')
+                .map(|l| l.trim_end_matches("\x1b[K"))
+                .collect();
+            assert!(lines.len() < rows, "{cols}×{rows}: {} lines", lines.len());
+            for l in &lines {
+                assert!(l.chars().count() <= cols, "{cols}×{rows}: `{l}`");
+            }
+            let has_rose = lines.iter().any(|l| l.contains('@'));
+            assert_eq!(has_rose, cols >= 80 && rows >= 24, "{cols}×{rows}");
+            assert_eq!(lines.contains(&LEGEND), has_rose);
+            assert!(lines.last().unwrap().starts_with("no valid frames"));
+            if has_rose {
+                // Title, blank, 17 rows of rose, legend, status.
+                assert_eq!(lines.len(), 21);
+            }
+        }
+    }
+
+    #[test]
+    fn noise_at_the_right_baud_rate_is_not_called_a_wrong_baud_rate() {
+        // Frame lines with bit errors: text, but nothing decodes.
+        let mut d = Decoder::new();
+        let mut stream = Vec::new();
+        let mut seq = 0;
+        while (stream.len() as u64) < WRONG_BAUD_BYTES {
+            let mut l = line(seq);
+            l[12] ^= 0x04;
+            stream.extend_from_slice(&l);
+            seq += 1;
+        }
+        d.feed(&stream, |_| panic!("a corrupted line decoded"));
+        assert!(d.text_share_since_frame() > 0.99);
+        assert!(d.baud_hint(115_200).is_none());
+        let hint = d.noise_hint().unwrap();
+        assert!(hint.contains("line noise"), "{hint}");
     }
 }

@@ -175,8 +175,10 @@ pub fn variant_config(base: &[String], extra: &str) -> Result<(LocatorConfig, u3
     let mut args: Vec<String> = vec!["host-sim".into(), "eval".into(), ".".into()];
     args.extend(base.iter().cloned());
     args.extend(extra.split_whitespace().map(String::from));
-    let cli = <crate::Cli as clap::Parser>::try_parse_from(&args)
-        .map_err(|e| SimError::Usage(format!("{extra}: {e}")))?;
+    let cli = <crate::Cli as clap::Parser>::try_parse_from(&args).map_err(|e| {
+        let e = e.to_string();
+        SimError::Usage(format!("{extra}: {}", e.trim_start_matches("error: ")))
+    })?;
     match cli.command {
         crate::Command::Eval(a) => Ok((a.config.config()?, a.config.grid)),
         _ => Err(SimError::Other("variant did not parse as eval".into())),

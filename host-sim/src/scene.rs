@@ -271,6 +271,15 @@ pub fn talker_activity(source: &[f64], rate: u32) -> (usize, usize) {
     (first * block, last)
 }
 
+impl Scene {
+    /// The interval `eval` scores, s: the talker's activity without its first 0.1 s (the time the
+    /// localizer needs to hear it). `scene --manifest` writes it into the manifest.
+    #[must_use]
+    pub fn score_window(&self) -> (f64, f64) {
+        (self.active_s.0 + 0.1, self.active_s.1)
+    }
+}
+
 /// Synthesises a scene.
 #[must_use]
 pub fn synthesize(spec: &SceneSpec) -> Scene {
@@ -390,12 +399,32 @@ pub fn write_scene(
             "{},{},{:.3},{:.3},\"host-sim scene\"",
             rel.display(),
             set,
-            scene.active_s.0 + 0.1,
-            scene.active_s.1
+            scene.score_window().0,
+            scene.score_window().1
         )
         .map_err(|e| SimError::io(manifest, e))?;
     }
     Ok(())
+}
+
+/// The line `host-sim scene` prints on stderr once the files are written: what went where, how
+/// long, and the talker's active interval (the window `eval` scores).
+#[must_use]
+pub fn written_line(scene: &Scene, out: &Path, manifest: Option<&Path>) -> String {
+    let mut line = format!(
+        "scene: wrote {} ({:.2} s, {} Hz, 4 channels) and {}; scoring window {:.3}–{:.3} s \
+         (talker active, first 0.1 s left out)",
+        out.display(),
+        scene.frames.len() as f64 / f64::from(scene.rate),
+        scene.rate,
+        out.with_extension("pos.csv").display(),
+        scene.score_window().0,
+        scene.score_window().1
+    );
+    if let Some(m) = manifest {
+        line.push_str(&format!("; listed in {}", m.display()));
+    }
+    line
 }
 
 /// Loads the talker: a mono WAV resampled to `rate`, or a synthetic source of `synth_s` seconds.

@@ -126,7 +126,7 @@ pub fn read(path: &Path) -> Result<CapsuleEstimate> {
             meta.len()
         )));
     }
-    let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, e))?;
+    let text = crate::text_file::read(path)?;
     parse(&text, path)
 }
 

@@ -8,6 +8,9 @@ use cma_core::table_file::{self, TableParts};
 use cma_core::ReferenceTable;
 use std::path::Path;
 
+/// Largest table file read, bytes: far above a 1° grid of 8 000 frequency rows (35 MB).
+pub const MAX_TABLE_BYTES: usize = 64 << 20;
+
 /// A reference table that owns its data (the core's [`ReferenceTable`] only borrows).
 #[derive(Debug, Clone, PartialEq)]
 pub struct OwnedTable {
@@ -96,9 +99,21 @@ impl OwnedTable {
         Ok(t)
     }
 
-    /// Reads a table file; a bad header, size or checksum is an error naming the file.
+    /// Reads a table file; a bad header, size or checksum is an error naming the file. At most
+    /// [`MAX_TABLE_BYTES`] are read, so an endless input (`/dev/zero`) ends with an error.
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| SimError::io(path, e))?;
+        use std::io::Read;
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_TABLE_BYTES as u64 + 1).read_to_end(&mut bytes))
+            .map_err(|e| SimError::io(path, e))?;
+        if bytes.len() > MAX_TABLE_BYTES {
+            return Err(SimError::Other(format!(
+                "{}: larger than {} MiB, more than any reference table",
+                path.display(),
+                MAX_TABLE_BYTES >> 20
+            )));
+        }
         let t = Self::from_bytes(&bytes)
             .map_err(|e| SimError::Other(format!("{}: {e}", path.display())))?;
         // The core's own checks (Q ≤ MAX_AZIMUTHS etc.) as well.
@@ -151,5 +166,14 @@ mod tests {
         assert!(bad.write(&out).is_err());
         assert!(!out.exists());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn endless_input_is_bounded() {
+        let e = OwnedTable::read(Path::new("/dev/zero"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("larger than 64 MiB"), "{e}");
     }
 }

@@ -1,4 +1,4 @@
-//! Subcommands of the thesis's further functions (issue 6): `beam`, `beam-report`, `options-eval`,
+//! Subcommands of the thesis's further functions: `beam`, `beam-report`, `options-eval`,
 //! `distance-report`.
 
 use crate::beam::{self, Steer};
@@ -50,7 +50,7 @@ pub struct BeamReportArgs {
     /// Source-material folder (`shared/data/src`: speech/, rir/).
     pub data: PathBuf,
     /// Diffuse-noise SNR on the omni, dB.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 0.0, value_parser = crate::arg_values::decibels)]
     pub snr: f64,
 }
 
@@ -60,7 +60,7 @@ pub struct OptionsEvalArgs {
     /// Folder with manifest.csv.
     pub dir: PathBuf,
     /// Worker threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::arg_values::threads)]
     pub threads: Option<usize>,
     /// Flags applied to every variant (as on the `eval` command line), e.g. `--preset thesis`.
     #[arg(long, allow_hyphen_values = true)]

@@ -1,4 +1,5 @@
-//! WAV reading and writing (hound): 4-channel CMA1 or AmbiX input, mono sources, atomic writes.
+//! WAV reading (one pass, any conforming RIFF layout) and writing (hound): 4-channel CMA1 or AmbiX
+//! input, mono sources, outputs through [`crate::output_file`].
 
 use crate::error::{Result, SimError};
 use cma_core::CARDIOID_LOOK_DEG;
@@ -31,17 +32,32 @@ pub const CHUNK_FRAMES: usize = 8 * 1024;
 
 /// An open WAV whose samples are read and decoded chunk by chunk into a reused buffer.
 ///
+/// The file is opened once and read front to back, never seeked or reopened, so a pipe, a FIFO or
+/// `/dev/stdin` works like a regular file. The RIFF header is walked chunk by chunk as the format
+/// allows: unknown chunks (`LIST`, `fact`, `bext`, …) before the `data` chunk are skipped with the pad
+/// byte after an odd length, the `fmt ` chunk may be PCM, IEEE float or `WAVE_FORMAT_EXTENSIBLE` of any
+/// length, integer samples may sit in wider containers (24 bits in 4 bytes), and a `data` length of
+/// `0xFFFFFFFF` (written by tools that stream to a pipe) means "until the end of the file".
+///
 /// Header problems (not a WAV, unsupported format, no samples) are reported by [`WavStream::open`];
 /// truncated or corrupt sample data by [`WavStream::read_chunk`], only after every complete sample
-/// frame before the damage has been delivered.
+/// frame before the damage has been delivered. No allocation is sized by the header's claim alone:
+/// the size of the file (when it is a regular file) bounds it.
 pub struct WavStream {
     path: PathBuf,
     spec: hound::WavSpec,
-    source: Source,
-    /// Samples the header declares.
-    declared: usize,
+    /// Bytes per sample in the file (the container: 3 for packed 24-bit, 4 for 24 bits in 4 bytes).
+    container: usize,
+    inner: std::io::BufReader<std::fs::File>,
+    raw: Vec<u8>,
+    /// Samples the header declares (`None`: until the end of the file).
+    declared: Option<usize>,
+    /// Samples the file can still hold after the header (regular files), an upper bound for buffers.
+    available: Option<usize>,
     /// Samples delivered so far.
     delivered: usize,
+    /// Bytes of sample data read so far.
+    got: usize,
     /// Decoded samples of an incomplete last frame, held back.
     carry: Vec<f32>,
     /// The error to report once the samples before it have been delivered.
@@ -50,104 +66,305 @@ pub struct WavStream {
     done: bool,
 }
 
-enum Source {
-    /// Packed little-endian samples (`block_align` = channels × bytes): raw reads, decoded in bulk
-    /// (hound's per-sample iterator costs more than the whole localizer).
-    Packed {
-        inner: std::io::BufReader<std::fs::File>,
-        raw: Vec<u8>,
-        /// Bytes of sample data read so far.
-        got: usize,
-    },
-    /// Any other layout hound reads: its per-sample iterator.
-    Hound(hound::WavReader<std::io::BufReader<std::fs::File>>),
+/// What the RIFF header says about the samples.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Header {
+    spec: hound::WavSpec,
+    /// Bytes per sample.
+    container: usize,
+    /// Bytes of sample data (`None`: until the end of the file).
+    data_len: Option<u64>,
+    /// Bytes of header before the first sample.
+    header_len: u64,
+}
+
+/// Why a header was refused.
+#[derive(Debug)]
+enum HeaderError {
+    /// Not a (readable) WAV file.
+    Bad(String),
+    /// A WAV whose sample format this tool does not decode.
+    Format(String),
+}
+
+/// The `SubFormat` GUID of `WAVE_FORMAT_EXTENSIBLE` after its first two bytes (the format tag):
+/// `xxxx0000-0000-0010-8000-00aa00389b71`.
+const KSDATAFORMAT_SUFFIX: [u8; 14] = [
+    0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x80, 0x00, 0x00, 0xAA, 0x00, 0x38, 0x9B, 0x71,
+];
+
+/// Bytes of a `fmt ` chunk that are parsed (the longest known layout, `WAVE_FORMAT_EXTENSIBLE`, is
+/// 40); the rest of a longer chunk is skipped.
+const FMT_PARSED: usize = 40;
+
+/// Reads exactly `buf.len()` bytes; `Ok(false)` at a clean end of file before the first byte.
+fn read_exact_or_eof(r: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<bool> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) if n == 0 => return Ok(false),
+            Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(true)
+}
+
+/// Skips `n` bytes by reading them (works on pipes); an error if the file ends first.
+fn skip(r: &mut impl std::io::Read, n: u64) -> std::io::Result<()> {
+    let skipped = std::io::copy(
+        &mut <&mut _ as std::io::Read>::take(r, n),
+        &mut std::io::sink(),
+    )?;
+    if skipped < n {
+        return Err(std::io::ErrorKind::UnexpectedEof.into());
+    }
+    Ok(())
+}
+
+/// Walks the RIFF header up to the first sample of the `data` chunk.
+fn read_header(r: &mut impl std::io::Read) -> std::result::Result<Header, HeaderError> {
+    let io = |what: &str, e: std::io::Error| {
+        HeaderError::Bad(if e.kind() == std::io::ErrorKind::UnexpectedEof {
+            format!("the file ends inside the {what}")
+        } else {
+            format!("header unreadable ({e})")
+        })
+    };
+    let mut riff = [0u8; 12];
+    if !read_exact_or_eof(r, &mut riff).map_err(|e| io("RIFF header", e))? {
+        return Err(HeaderError::Bad("the file is empty".into()));
+    }
+    match &riff[..4] {
+        b"RIFF" => {}
+        b"RIFX" | b"RF64" => {
+            return Err(HeaderError::Format(format!(
+                "{} container (only little-endian RIFF is read)",
+                String::from_utf8_lossy(&riff[..4])
+            )))
+        }
+        _ => return Err(HeaderError::Bad("no RIFF tag found".into())),
+    }
+    if &riff[8..12] != b"WAVE" {
+        return Err(HeaderError::Bad("no WAVE tag found".into()));
+    }
+    let mut pos = 12u64;
+    let mut fmt: Option<(hound::WavSpec, usize)> = None;
+    loop {
+        let mut head = [0u8; 8];
+        if !read_exact_or_eof(r, &mut head).map_err(|e| io("chunk list", e))? {
+            return Err(HeaderError::Bad(
+                if fmt.is_some() {
+                    "no data chunk"
+                } else {
+                    "no fmt chunk"
+                }
+                .into(),
+            ));
+        }
+        pos += 8;
+        let len = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+        let padded = u64::from(len) + u64::from(len & 1);
+        match &head[..4] {
+            b"fmt " => {
+                let mut b = [0u8; FMT_PARSED];
+                let n = (len as usize).min(FMT_PARSED);
+                if n < 16 {
+                    return Err(HeaderError::Bad(format!(
+                        "fmt chunk of {len} bytes, expected at least 16"
+                    )));
+                }
+                read_exact_or_eof(r, &mut b[..n])
+                    .and_then(|ok| {
+                        ok.then_some(())
+                            .ok_or_else(|| std::io::ErrorKind::UnexpectedEof.into())
+                    })
+                    .map_err(|e| io("fmt chunk", e))?;
+                skip(r, padded - n as u64).map_err(|e| io("fmt chunk", e))?;
+                fmt = Some(parse_fmt(&b[..n])?);
+            }
+            b"data" => {
+                let Some((spec, container)) = fmt else {
+                    return Err(HeaderError::Bad("data chunk before the fmt chunk".into()));
+                };
+                let data_len = (len != u32::MAX).then_some(u64::from(len));
+                let block = container as u64 * u64::from(spec.channels);
+                if let Some(l) = data_len {
+                    if l % block != 0 {
+                        return Err(HeaderError::Bad(format!(
+                            "data chunk of {l} bytes is not a whole number of {block}-byte sample frames"
+                        )));
+                    }
+                }
+                return Ok(Header {
+                    spec,
+                    container,
+                    data_len,
+                    header_len: pos,
+                });
+            }
+            _ => skip(r, padded).map_err(|e| io("chunk list", e))?,
+        }
+        pos += padded;
+    }
+}
+
+/// Parses the first up to [`FMT_PARSED`] bytes of a `fmt ` chunk (at least 16).
+fn parse_fmt(b: &[u8]) -> std::result::Result<(hound::WavSpec, usize), HeaderError> {
+    let u16_at = |i: usize| u16::from_le_bytes([b[i], b[i + 1]]);
+    let mut tag = u16_at(0);
+    let channels = u16_at(2);
+    let sample_rate = u32::from_le_bytes([b[4], b[5], b[6], b[7]]);
+    let block_align = usize::from(u16_at(12));
+    let mut bits = u16_at(14);
+    if tag == 0xFFFE {
+        if b.len() < FMT_PARSED || u16_at(16) < 22 {
+            return Err(HeaderError::Bad(
+                "WAVE_FORMAT_EXTENSIBLE fmt chunk shorter than 40 bytes".into(),
+            ));
+        }
+        if b[26..40] != KSDATAFORMAT_SUFFIX {
+            return Err(HeaderError::Format(
+                "WAVE_FORMAT_EXTENSIBLE with an unknown SubFormat GUID".into(),
+            ));
+        }
+        let valid = u16_at(18);
+        if valid > 0 {
+            bits = valid;
+        }
+        tag = u16_at(24);
+    }
+    let sample_format = match tag {
+        1 => hound::SampleFormat::Int,
+        3 => hound::SampleFormat::Float,
+        other => {
+            return Err(HeaderError::Format(format!(
+                "format tag 0x{other:04X} (compressed or unknown)"
+            )))
+        }
+    };
+    if channels == 0 {
+        return Err(HeaderError::Bad("the fmt chunk declares 0 channels".into()));
+    }
+    if sample_rate == 0 {
+        return Err(HeaderError::Bad(
+            "the fmt chunk declares a sample rate of 0 Hz".into(),
+        ));
+    }
+    if block_align == 0 || block_align % usize::from(channels) != 0 {
+        return Err(HeaderError::Bad(format!(
+            "block align {block_align} is not a multiple of the {channels} channels"
+        )));
+    }
+    let container = block_align / usize::from(channels);
+    if bits == 0 || usize::from(bits) > 8 * container {
+        return Err(HeaderError::Bad(format!(
+            "{bits} bits per sample in {container}-byte samples"
+        )));
+    }
+    let supported = match sample_format {
+        hound::SampleFormat::Int => (1..=4).contains(&container),
+        hound::SampleFormat::Float => container == 4 && bits == 32,
+    };
+    if !supported {
+        return Err(HeaderError::Format(format!(
+            "{sample_format:?} {bits}-bit in {container}-byte samples"
+        )));
+    }
+    Ok((
+        hound::WavSpec {
+            channels,
+            sample_rate,
+            bits_per_sample: bits,
+            sample_format,
+        },
+        container,
+    ))
 }
 
 impl WavStream {
     /// Opens a WAV and parses its header; the samples are read by [`WavStream::read_chunk`].
     pub fn open(path: &Path) -> Result<Self> {
-        let bad = |reason: String| SimError::BadWav {
-            path: path.to_path_buf(),
-            reason,
-        };
-        if !path.exists() {
-            return Err(SimError::io(
-                path,
-                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
-            ));
-        }
-        let file = std::fs::File::open(path).map_err(|e| SimError::io(path, e))?;
-        let reader = hound::WavReader::new(std::io::BufReader::new(file)).map_err(|e| match e {
-            hound::Error::IoError(io) => bad(format!("header unreadable ({io})")),
-            hound::Error::FormatError(msg) if msg.contains("bits per sample") => {
-                SimError::SampleFormat {
-                    path: path.to_path_buf(),
-                    format: msg.to_string(),
-                }
+        let file = std::fs::File::open(path).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::NotFound {
+                SimError::io(
+                    path,
+                    std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+                )
+            } else {
+                SimError::io(path, e)
             }
-            hound::Error::Unsupported => SimError::SampleFormat {
-                path: path.to_path_buf(),
-                format: "unsupported by the WAV reader".into(),
-            },
-            other => bad(other.to_string()),
         })?;
-        let spec = reader.spec();
-        let declared = reader.len() as usize;
-        let bytes = (spec.bits_per_sample as usize).div_ceil(8);
-        let packed = block_align(path) == Some(spec.channels as usize * bytes);
-        let source = match (spec.sample_format, spec.bits_per_sample) {
-            (hound::SampleFormat::Float, 32) | (hound::SampleFormat::Int, 8 | 16 | 24 | 32)
-                if packed =>
-            {
-                Source::Packed {
-                    inner: reader.into_inner(),
-                    raw: Vec::new(),
-                    got: 0,
-                }
-            }
-            (hound::SampleFormat::Float, 32) | (hound::SampleFormat::Int, 8 | 16 | 24 | 32) => {
-                Source::Hound(reader)
-            }
-            (fmt, bits) => {
-                return Err(SimError::SampleFormat {
-                    path: path.to_path_buf(),
-                    format: format!("{fmt:?} {bits}-bit"),
-                })
-            }
-        };
-        if declared == 0 {
+        // Only a regular file's length says how much can follow (a pipe's or a device's does not).
+        let file_len = file
+            .metadata()
+            .ok()
+            .filter(std::fs::Metadata::is_file)
+            .map(|m| m.len());
+        let mut inner = std::io::BufReader::new(file);
+        let header = read_header(&mut inner).map_err(|e| match e {
+            HeaderError::Bad(reason) => SimError::BadWav {
+                path: path.to_path_buf(),
+                reason,
+            },
+            HeaderError::Format(format) => SimError::SampleFormat {
+                path: path.to_path_buf(),
+                format,
+            },
+        })?;
+        let samples =
+            |bytes: u64| usize::try_from(bytes / header.container as u64).unwrap_or(usize::MAX);
+        let declared = header.data_len.map(samples);
+        if declared == Some(0) {
             return Err(SimError::Empty {
                 path: path.to_path_buf(),
             });
         }
         Ok(Self {
             path: path.to_path_buf(),
-            spec,
-            source,
+            spec: header.spec,
+            container: header.container,
+            inner,
+            raw: Vec::new(),
             declared,
+            available: file_len.map(|l| samples(l.saturating_sub(header.header_len))),
             delivered: 0,
+            got: 0,
             carry: Vec::new(),
             pending: None,
             done: false,
         })
     }
 
-    /// The header's format.
+    /// The header's format (`bits_per_sample`: the valid bits of a sample).
     #[must_use]
     pub fn spec(&self) -> hound::WavSpec {
         self.spec
     }
 
-    /// Sample frames the header declares.
+    /// Sample frames the header declares (for a progress bar; the file may hold fewer, and a
+    /// `data` chunk of unknown length declares 0). Not a size to allocate: see
+    /// [`WavStream::capacity_frames`].
     #[must_use]
     pub fn declared_frames(&self) -> usize {
-        self.declared / self.spec.channels.max(1) as usize
+        self.declared.unwrap_or(0) / usize::from(self.spec.channels)
+    }
+
+    /// Sample frames worth reserving room for: the header's claim, capped by what the file can
+    /// hold (a regular file) or by one chunk (a pipe, whose length is unknown).
+    #[must_use]
+    pub fn capacity_frames(&self) -> usize {
+        let ch = usize::from(self.spec.channels);
+        let cap = self.available.unwrap_or(CHUNK_FRAMES * ch);
+        self.declared.unwrap_or(cap).min(cap) / ch
     }
 
     /// Replaces `out` with the next up to [`CHUNK_FRAMES`] complete sample frames, interleaved, as
-    /// f32 full scale ±1 (exactly as hound's sample iterator gives them). `out` is left empty at the
-    /// end of the data. Truncated or corrupt data is an error, returned after the complete frames
-    /// before it.
+    /// f32 full scale ±1 (for packed samples exactly as hound's sample iterator gives them). `out`
+    /// is left empty at the end of the data. Truncated or corrupt data is an error, returned after
+    /// the complete frames before it.
     pub fn read_chunk(&mut self, out: &mut Vec<f32>) -> Result<()> {
         out.clear();
         if let Some(e) = self.pending.take() {
@@ -157,80 +374,64 @@ impl WavStream {
         if self.done {
             return Ok(());
         }
-        let ch = self.spec.channels.max(1) as usize;
+        let ch = usize::from(self.spec.channels);
         out.append(&mut self.carry);
-        let want = (self.declared - self.delivered).min(CHUNK_FRAMES * ch);
+        let bytes = self.container;
+        let want = match self.declared {
+            Some(d) => (d - self.delivered).min(CHUNK_FRAMES * ch),
+            None => CHUNK_FRAMES * ch,
+        };
+        self.raw.resize(want * bytes, 0);
+        let mut n = 0;
+        while n < self.raw.len() {
+            use std::io::Read;
+            match self.inner.read(&mut self.raw[n..]) {
+                Ok(0) => break,
+                Ok(k) => n += k,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    self.done = true;
+                    return Err(SimError::io(&self.path, e));
+                }
+            }
+        }
+        self.got += n;
+        let whole = n - n % bytes;
+        decode_samples(&self.raw[..whole], self.spec.sample_format, bytes, out);
+        self.delivered += whole / bytes;
         let bad = |reason: String| SimError::BadWav {
             path: self.path.clone(),
             reason,
         };
-        match &mut self.source {
-            Source::Packed { inner, raw, got } => {
-                use std::io::Read;
-                let bytes = (self.spec.bits_per_sample as usize).div_ceil(8);
-                raw.resize(want * bytes, 0);
-                let mut n = 0;
-                while n < raw.len() {
-                    match inner.read(&mut raw[n..]) {
-                        Ok(0) => break,
-                        Ok(k) => n += k,
-                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                        Err(e) => {
-                            self.done = true;
-                            return Err(SimError::io(&self.path, e));
-                        }
-                    }
-                }
-                *got += n;
-                let whole = n - n % bytes;
-                decode_packed(
-                    &raw[..whole],
-                    self.spec.sample_format,
-                    self.spec.bits_per_sample,
-                    out,
-                );
-                self.delivered += whole / bytes;
-                if n < raw.len() {
+        let at_end = match self.declared {
+            Some(d) => {
+                if n < self.raw.len() {
                     self.pending = Some(bad(format!(
-                        "truncated or corrupt sample data (the header declares {} bytes of samples, the file holds {got})",
-                        self.declared * bytes
+                        "truncated or corrupt sample data (the header declares {} bytes of samples, the file holds {})",
+                        d * bytes,
+                        self.got
                     )));
                 }
+                self.delivered == d
             }
-            Source::Hound(reader) => {
-                let mut take = |out: &mut Vec<f32>| -> std::result::Result<(), hound::Error> {
-                    if self.spec.sample_format == hound::SampleFormat::Float {
-                        for s in reader.samples::<f32>().take(want) {
-                            out.push(s?);
-                        }
-                    } else {
-                        let scale = 1.0 / (1u64 << (self.spec.bits_per_sample - 1)) as f64;
-                        for s in reader.samples::<i32>().take(want) {
-                            out.push((s? as f64 * scale) as f32);
-                        }
-                    }
-                    Ok(())
-                };
-                let before = out.len();
-                let r = take(out);
-                self.delivered += out.len() - before;
-                if let Err(e) = r {
-                    self.pending = Some(bad(format!("truncated or corrupt sample data ({e})")));
-                }
-            }
-        }
+            None => n < self.raw.len(),
+        };
         let whole = out.len() - out.len() % ch;
-        if self.pending.is_none() && self.delivered == self.declared && whole != out.len() {
+        if self.pending.is_none() && at_end && (whole != out.len() || n % bytes != 0) {
             self.pending = Some(bad("truncated: the last sample frame is incomplete".into()));
         }
         self.carry.extend_from_slice(&out[whole..]);
         out.truncate(whole);
         if out.is_empty() {
+            self.done = true;
             if let Some(e) = self.pending.take() {
-                self.done = true;
                 return Err(e);
             }
-            self.done = true;
+            if self.delivered == 0 {
+                return Err(SimError::Empty {
+                    path: self.path.clone(),
+                });
+            }
         }
         Ok(())
     }
@@ -238,18 +439,23 @@ impl WavStream {
 
 /// Reads all samples of a WAV as f32 (full scale ±1), interleaved, with its spec.
 pub fn read_interleaved(path: &Path) -> Result<(hound::WavSpec, Vec<f32>)> {
-    let mut stream = WavStream::open(path)?;
-    let out = read_all(stream.declared, |chunk| stream.read_chunk(chunk))?;
+    read_rest(WavStream::open(path)?)
+}
+
+/// Reads the rest of an open WAV (interleaved) with its spec.
+fn read_rest(mut stream: WavStream) -> Result<(hound::WavSpec, Vec<f32>)> {
+    let capacity = stream.capacity_frames() * usize::from(stream.spec.channels);
+    let out = read_all(capacity, |chunk| stream.read_chunk(chunk))?;
     Ok((stream.spec, out))
 }
 
 /// Collects every chunk that `read_chunk` yields (an empty chunk ends the data) into one vector
-/// with room for `declared` items.
+/// with room for `capacity` items (an estimate; the vector grows if more come).
 fn read_all<T: Copy>(
-    declared: usize,
+    capacity: usize,
     mut read_chunk: impl FnMut(&mut Vec<T>) -> Result<()>,
 ) -> Result<Vec<T>> {
-    let mut out = Vec::with_capacity(declared);
+    let mut out = Vec::with_capacity(capacity);
     let mut chunk = Vec::new();
     loop {
         read_chunk(&mut chunk)?;
@@ -260,48 +466,28 @@ fn read_all<T: Copy>(
     }
 }
 
-/// `block_align` of the file's `fmt ` chunk (bytes per sample frame), if the RIFF header can be walked.
-fn block_align(path: &Path) -> Option<usize> {
-    use std::io::Read;
-    let mut head = Vec::new();
-    std::fs::File::open(path)
-        .ok()?
-        .take(4096)
-        .read_to_end(&mut head)
-        .ok()?;
-    let mut pos = 12;
-    while pos + 8 <= head.len() {
-        let id = &head[pos..pos + 4];
-        let len = u32::from_le_bytes(head[pos + 4..pos + 8].try_into().ok()?) as usize;
-        if id == b"fmt " {
-            let b = head.get(pos + 20..pos + 22)?;
-            return Some(u16::from_le_bytes([b[0], b[1]]) as usize);
-        }
-        pos += 8 + len + (len & 1);
-    }
-    None
-}
-
-/// Appends packed little-endian WAV samples to `out` as f32 full scale ±1, exactly as hound's
-/// iterator and `(v as f64 / 2^(bits-1)) as f32` give them (8-bit is unsigned with offset 128).
+/// Appends little-endian WAV samples of `container` bytes each to `out` as f32 full scale ±1: a
+/// container's integer over 2^(8·container − 1), so a sample with fewer valid bits than its container
+/// (left-justified, as the format prescribes) scales right; for packed samples this is exactly
+/// hound's `(v as f64 / 2^(bits-1)) as f32`. 8-bit is unsigned with offset 128.
 ///
 /// Up to 24 bits the integer and the product with the power-of-two scale are exact in f32, so the
 /// f32 product equals the rounded f64 one; 32-bit goes through f64.
-fn decode_packed(raw: &[u8], format: hound::SampleFormat, bits: u16, out: &mut Vec<f32>) {
-    let scale = 1.0 / (1u64 << (bits - 1)) as f64;
+fn decode_samples(raw: &[u8], format: hound::SampleFormat, container: usize, out: &mut Vec<f32>) {
+    let scale = 1.0 / (1u64 << (8 * container - 1)) as f64;
     let s32 = scale as f32;
     // Exact-size iterators: `extend` writes in place, without zero-filling first.
-    match (format, bits) {
+    match (format, container) {
         (hound::SampleFormat::Float, _) => out.extend(
             raw.chunks_exact(4)
                 .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
         ),
-        (_, 8) => out.extend(raw.iter().map(|b| (*b as i32 - 128) as f32 * s32)),
-        (_, 16) => out.extend(
+        (_, 1) => out.extend(raw.iter().map(|b| (*b as i32 - 128) as f32 * s32)),
+        (_, 2) => out.extend(
             raw.chunks_exact(2)
                 .map(|b| i16::from_le_bytes([b[0], b[1]]) as f32 * s32),
         ),
-        (_, 24) => out.extend(
+        (_, 3) => out.extend(
             raw.chunks_exact(3)
                 .map(|b| (i32::from_le_bytes([0, b[0], b[1], b[2]]) >> 8) as f32 * s32),
         ),
@@ -327,9 +513,9 @@ fn check_four(path: &Path, spec: hound::WavSpec, layout: &'static str) -> Result
 
 /// Reads a WAV that must have 4 channels (`layout` names them in the error message).
 pub fn read_four_channels(path: &Path, layout: &'static str) -> Result<(hound::WavSpec, Vec<f32>)> {
-    let (spec, data) = read_interleaved(path)?;
-    check_four(path, spec, layout)?;
-    Ok((spec, data))
+    let stream = WavStream::open(path)?;
+    check_four(path, stream.spec, layout)?;
+    read_rest(stream)
 }
 
 /// A 4-channel recording read chunk by chunk and converted to CMA1 order.
@@ -374,10 +560,16 @@ impl RecordingStream {
         self.wav.spec.sample_rate
     }
 
-    /// Sample frames the header declares.
+    /// Sample frames the header declares (see [`WavStream::declared_frames`]).
     #[must_use]
     pub fn declared_frames(&self) -> usize {
         self.wav.declared_frames()
+    }
+
+    /// Sample frames worth reserving room for (see [`WavStream::capacity_frames`]).
+    #[must_use]
+    pub fn capacity_frames(&self) -> usize {
+        self.wav.capacity_frames()
     }
 
     /// Replaces `out` with the next up to [`CHUNK_FRAMES`] sample frames in CMA1 order; empty at the
@@ -418,7 +610,7 @@ impl RecordingStream {
 /// Reads a 4-channel recording and converts it to CMA1 order.
 pub fn read_recording(path: &Path, layout: InputLayout) -> Result<Recording> {
     let mut stream = RecordingStream::open(path, layout)?;
-    let frames = read_all(stream.declared_frames(), |chunk| stream.read_chunk(chunk))?;
+    let frames = read_all(stream.capacity_frames(), |chunk| stream.read_chunk(chunk))?;
     Ok(Recording {
         rate: stream.rate(),
         frames,
@@ -458,8 +650,8 @@ pub enum OutFormat {
     Float,
 }
 
-/// Writes interleaved samples (full scale ±1, clamped for PCM) atomically: to a temporary file next to
-/// `path`, renamed into place only when complete.
+/// Writes interleaved samples (full scale ±1, clamped for PCM) as an output file
+/// ([`crate::output_file`]: complete or not at all).
 pub fn write_wav(
     path: &Path,
     rate: u32,
@@ -500,21 +692,10 @@ pub fn write_wav(
     })
 }
 
-/// Runs `write` on a temporary path beside `path` and renames it into place on success; on failure the
-/// temporary file is removed and `path` is untouched.
+/// Writes an output file through a temporary path (see [`crate::output_file`]: atomic for regular
+/// files, through symbolic links, into device nodes and FIFOs without replacing them).
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.partial"));
-    match write(&tmp) {
-        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| SimError::io(path, e)),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(e)
-        }
-    }
+    crate::output_file::write(path, write)
 }
 
 #[cfg(test)]

@@ -301,7 +301,7 @@ fn emit_to_monitor_round_trip_equals_locate() {
         host_sim::score::report(&host_sim::score::ScoreArgs {
             estimates: csv.to_path_buf(),
             truth: truth.clone(),
-            from: 0.0,
+            from: Some(0.0),
             to: None,
             json: false,
         })

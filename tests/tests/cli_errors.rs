@@ -234,3 +234,155 @@ fn bad_estimate_csv() {
     let e = host_sim::locate::read_csv(&p).unwrap_err().to_string();
     assert!(e.contains(":2:"), "{e}");
 }
+
+#[test]
+fn usage_errors_are_clap_errors_with_exit_status_2() {
+    for args in [
+        vec!["frobnicate"],
+        vec!["locate"],
+        vec!["scene", "--out", "x.wav", "--synth", "NaN"],
+        vec!["scene", "--out", "x.wav", "--synth", "1e9"],
+        vec![
+            "scene",
+            "--out",
+            "x.wav",
+            "--synth",
+            "1",
+            "--azimuth",
+            "NaN",
+        ],
+        vec!["scene", "--out", "x.wav", "--synth", "1", "--snr", "nan"],
+        vec!["eval", ".", "--threads", "18446744073709551615"],
+        vec!["monitor", "--port", "/dev/null", "--exit-after-idle", "-1"],
+        vec!["score", "a.csv", "b.pos.csv", "--from", "inf"],
+    ] {
+        let e = host_sim(&args).unwrap_err();
+        assert_eq!(e.exit_code(), 2, "{args:?}: {e}");
+        let text = e.to_string();
+        assert_eq!(text.matches("error:").count(), 1, "{args:?}: {text}");
+        assert!(text.starts_with("error:"), "{args:?}: {text}");
+    }
+    let m = err_of(&["scene", "--out", "x.wav", "--synth", "1e9"]);
+    assert!(m.contains("--synth") && m.contains("3600"), "{m}");
+    // A failure that is not a usage error exits 1.
+    let e = host_sim(&["locate", "/nonexistent/x.wav"]).unwrap_err();
+    assert_eq!(e.exit_code(), 1);
+}
+
+#[test]
+fn negative_numbers_are_flag_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(dir.path(), "n.wav", &["--synth", "1", "--azimuth", "-120"]);
+    let w = wav.to_string_lossy().into_owned();
+    let csv = path_in(dir.path(), "n.csv");
+    host_sim(&[
+        "locate",
+        &w,
+        "--csv",
+        &csv,
+        "--quiet",
+        "--snr-from",
+        "-30",
+        "--snr-to",
+        "0",
+    ])
+    .unwrap();
+    make_scene(
+        dir.path(),
+        "m.wav",
+        &[
+            "--synth",
+            "1",
+            "--track",
+            "0:-30,0.5:-160",
+            "--peak-dbfs",
+            "-6",
+            "--snr",
+            "-5",
+        ],
+    );
+    // Refused for its value (not parsed as an unknown flag `-1`).
+    let m = err_of(&["monitor", "--port", "/dev/null", "--exit-after-idle", "-1"]);
+    assert!(m.contains("-1 is outside (0,"), "{m}");
+}
+
+#[test]
+fn score_uses_the_window_eval_uses_and_names_it() {
+    use host_sim::score::{report, window, ScoreArgs};
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = path_in(dir.path(), "manifest.csv");
+    let wav = make_scene(
+        dir.path(),
+        "a.wav",
+        &[
+            "--synth",
+            "2",
+            "--azimuth",
+            "70",
+            "--snr",
+            "5",
+            "--lead-in",
+            "0.6",
+            "--manifest",
+            &manifest,
+        ],
+    );
+    let csv = path_in(dir.path(), "a.csv");
+    host_sim(&["locate", &wav.to_string_lossy(), "--csv", &csv, "--quiet"]).unwrap();
+    let args = |from: Option<f64>| ScoreArgs {
+        estimates: csv.clone().into(),
+        truth: wav.with_extension("pos.csv"),
+        from,
+        to: None,
+        json: false,
+    };
+    let w = window(&args(None)).unwrap();
+    assert!(w.source.contains("manifest.csv"), "{w:?}");
+    assert!(w.from_s > 0.6, "{w:?}");
+    let (eval_report, _) = host_sim::eval::evaluate(
+        dir.path(),
+        cma_core::LocatorConfig::default(),
+        cma_core::ReferenceTable::ideal_5deg(),
+        host_sim::wav_io::InputLayout::Cma1,
+        1,
+        &|_| {},
+    )
+    .unwrap();
+    let scored = report(&args(None)).unwrap().overall.settled;
+    let evaluated = &eval_report.overall.settled;
+    assert_eq!(scored.frames, evaluated.frames);
+    assert!(
+        (scored.mae - evaluated.mae).abs() < 0.01,
+        "{scored:?} {evaluated:?}"
+    );
+    // The flags win; without a manifest every frame is scored, and that is said.
+    assert_eq!(window(&args(Some(0.0))).unwrap().source, "--from/--to");
+    std::fs::remove_file(&manifest).unwrap();
+    let all = window(&args(None)).unwrap();
+    assert!(all.source.starts_with("all frames"), "{all:?}");
+    assert!(report(&args(None)).unwrap().overall.settled.frames > scored.frames);
+}
+
+#[test]
+fn locate_writes_json_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(dir.path(), "j.wav", &["--synth", "1", "--azimuth", "10"]);
+    let w = wav.to_string_lossy().into_owned();
+    let (csv, jsonl) = (path_in(dir.path(), "j.csv"), path_in(dir.path(), "j.jsonl"));
+    host_sim(&["locate", &w, "--csv", &csv, "--quiet"]).unwrap();
+    host_sim(&[
+        "locate", &w, "--out", &jsonl, "--format", "jsonl", "--quiet",
+    ])
+    .unwrap();
+    let csv = std::fs::read_to_string(csv).unwrap();
+    let jsonl = std::fs::read_to_string(jsonl).unwrap();
+    assert_eq!(csv.lines().count(), jsonl.lines().count() + 1);
+    for (c, j) in csv.lines().skip(1).zip(jsonl.lines()) {
+        let f: Vec<&str> = c.split(',').collect();
+        assert!(
+            j.starts_with(&format!("{{\"frame\":{},\"t_s\":{},", f[0], f[1])),
+            "{c} / {j}"
+        );
+        assert!(j.contains(&format!("\"flags\":{},", f[6])), "{c} / {j}");
+    }
+}
