@@ -7,6 +7,7 @@
 //! instruction-counting TCG plugin.
 #![no_std]
 
+pub mod inputs;
 pub mod scene;
 pub mod stages;
 
@@ -29,6 +30,10 @@ pub enum Mode {
     Generate,
     /// Run one stage `arg` times on a fixed analysis frame ([`stages::Stage`]).
     Stage(stages::Stage),
+    /// Run `(arg >> 8) & 0xfff` hops of input kind `arg & 0xff` ([`inputs::InputKind::from_index`])
+    /// through the default localizer in blocks of `arg >> 20` sample frames, or of
+    /// [`FIRMWARE_BLOCK`] for 0 ([`run_hops`]), for per-hop instruction counts.
+    Hops,
 }
 
 impl Mode {
@@ -39,6 +44,7 @@ impl Mode {
             0 => Mode::Check,
             1 => Mode::Pipeline,
             2 => Mode::Generate,
+            8 => Mode::Hops,
             w => Mode::Stage(stages::Stage::from_word(w)?),
         })
     }
@@ -67,6 +73,10 @@ impl fmt::Display for EstimateBits<'_> {
 
 /// Sample frames per block fed to the localizer (any size gives the same estimates).
 pub const BLOCK: usize = 256;
+
+/// Sample frames per block the firmware passes to the localizer (its DMA half-block; a test keeps
+/// this equal to the firmware's constant).
+pub const FIRMWARE_BLOCK: usize = 32;
 
 /// Configurations the bit-for-bit check runs (the argument of [`Mode::Check`]): the product default,
 /// the default with the active-ratio features, and the thesis configuration (one-pole curve filter
@@ -128,5 +138,44 @@ pub fn run_scene_with(
             core::hint::black_box(&block);
         }
         left -= n;
+    }
+}
+
+/// Marks in a [`run_hops`] run, for an instruction counter that follows the program counter
+/// (`scripts/insn-count.c`): input generation is bracketed by `pause` and `resume`, and `hop` is
+/// called with every estimate.
+pub trait HopMarks {
+    /// Input generation starts.
+    fn pause(&mut self);
+    /// Input generation has ended.
+    fn resume(&mut self);
+    /// An estimate (one hop) is complete.
+    fn hop(&mut self, e: &Estimate);
+}
+
+/// Longest block [`run_hops`] takes (one hop).
+pub const MAX_BLOCK: usize = scene::HOP_SAMPLES;
+
+/// Runs `hops` hops of `kind` through a default [`cma_core::Locator`] at 48 kHz in blocks of `block`
+/// sample frames (at most [`MAX_BLOCK`]; the firmware's is [`FIRMWARE_BLOCK`]), as the firmware
+/// calls it.
+///
+/// # Panics
+/// Never (the default configuration is valid at 48 kHz).
+pub fn run_hops(kind: inputs::InputKind, hops: usize, block: usize, marks: &mut impl HopMarks) {
+    let mut locator = cma_core::Locator::new(
+        cma_core::LocatorConfig::default(),
+        cma_core::ReferenceTable::ideal_5deg(),
+        scene::RATE_HZ,
+    )
+    .expect("configuration valid at 48 kHz");
+    let mut input = inputs::Input::new(kind);
+    let mut buf = [[0.0f32; cma_core::CHANNELS]; MAX_BLOCK];
+    let block = &mut buf[..block.clamp(1, MAX_BLOCK)];
+    for _ in 0..hops * scene::HOP_SAMPLES / block.len() {
+        marks.pause();
+        input.fill(block);
+        marks.resume();
+        locator.process_block(block, |e| marks.hop(e));
     }
 }

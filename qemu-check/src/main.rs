@@ -4,7 +4,9 @@
 //! * mode 0: runs the test scene through the localizer (configuration `arg`, see
 //!   [`qemu_check::check_config`]) and prints every estimate's bits over semihosting, then `END <count>`;
 //! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
-//!   instruction counting (`scripts/cost.sh`).
+//!   instruction counting (`scripts/cost.sh`);
+//! * mode 8: runs hops of an input kind in the firmware's blocks (see [`qemu_check::Mode::Hops`]), entering
+//!   the mark functions that `scripts/cost.sh` follows for per-hop counts.
 //!
 //! It exits QEMU with status 0, or 1 after a panic or a HardFault.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -12,11 +14,51 @@
 #[cfg(target_os = "none")]
 mod target {
     use core::mem::MaybeUninit;
+    use cortex_m::asm::nop;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hprintln};
     use qemu_check::{
-        check_config, run_scene, run_scene_with, stages::Bench, EstimateBits, Mode, MODE_ADDR,
+        check_config, inputs::InputKind, run_hops, run_scene, run_scene_with, stages::Bench,
+        EstimateBits, HopMarks, Mode, FIRMWARE_BLOCK, MODE_ADDR,
     };
+
+    // The mark functions: `scripts/cost.sh` finds them by name. Their `nop`s (an `asm!` each, which
+    // the optimiser keeps) make the bodies different, so that none is removed or merged with another.
+
+    /// Entered before input generation.
+    #[inline(never)]
+    fn cost_mark_pause() {
+        nop();
+    }
+
+    /// Entered after input generation.
+    #[inline(never)]
+    fn cost_mark_resume() {
+        nop();
+        nop();
+    }
+
+    /// Entered with every estimate.
+    #[inline(never)]
+    fn cost_mark_hop() {
+        nop();
+        nop();
+        nop();
+    }
+
+    struct Marks;
+
+    impl HopMarks for Marks {
+        fn pause(&mut self) {
+            cost_mark_pause();
+        }
+        fn resume(&mut self) {
+            cost_mark_resume();
+        }
+        fn hop(&mut self, _: &cma_core::Estimate) {
+            cost_mark_hop();
+        }
+    }
 
     #[entry]
     fn main() -> ! {
@@ -46,6 +88,17 @@ mod target {
                 core::hint::black_box(e);
             }),
             Some(Mode::Generate) => run_scene(arg, false, |_| {}),
+            Some(Mode::Hops) => {
+                let Some(kind) = InputKind::from_index(arg as u32 & 0xff) else {
+                    hprintln!("unknown input kind {}", arg & 0xff);
+                    exit(debug::EXIT_FAILURE)
+                };
+                let block = match arg >> 20 {
+                    0 => FIRMWARE_BLOCK,
+                    b => b,
+                };
+                run_hops(kind, (arg >> 8) & 0xfff, block, &mut Marks);
+            }
             Some(Mode::Stage(stage)) => {
                 let mut slot = MaybeUninit::uninit();
                 let bench = Bench::new(&mut slot);
