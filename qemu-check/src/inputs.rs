@@ -143,7 +143,10 @@ mod tests {
             input.fill(&mut block);
             let values = block.iter().flatten();
             let non_finite = values.clone().filter(|v| !v.is_finite()).count();
-            let at_full_scale = values.clone().filter(|v| v.abs() >= 0.999).count();
+            let at_full_scale = values
+                .clone()
+                .filter(|v| v.is_finite() && v.abs() >= 0.999)
+                .count();
             let on_grid = values
                 .clone()
                 .filter(|v| v.is_finite())

@@ -21,8 +21,8 @@ pub const MODE_ADDR: u32 = 0x2030_0000;
 /// What the target program does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
-    /// Run the whole scene through the localizer configured as [`check_config`]`(arg)` and print
-    /// every estimate ([`EstimateBits`]).
+    /// Run check variant `arg` ([`run_check`]: the scene through a [`check_config`], or an input
+    /// kind in the firmware's blocks) and print every estimate ([`EstimateBits`]).
     Check,
     /// Generate and process `arg` hops of the scene without printing.
     Pipeline,
@@ -95,6 +95,49 @@ pub fn check_config(variant: usize) -> Option<cma_core::LocatorConfig> {
 
 /// Number of [`check_config`] variants.
 pub const CHECK_CONFIGS: usize = 3;
+
+/// Number of variants [`Mode::Check`] runs: the [`check_config`] ones, then each
+/// [`inputs::InputKind`] through the default configuration in the firmware's blocks
+/// ([`run_check`]).
+pub const CHECK_VARIANTS: usize = CHECK_CONFIGS + inputs::InputKind::ALL.len();
+
+/// Hops of an input kind in the bit-for-bit check (2.56 s: six NaN bursts, the scene's first
+/// four positions).
+pub const CHECK_KIND_HOPS: usize = 120;
+
+/// Runs check variant `variant` (< [`CHECK_VARIANTS`]) and calls `on_estimate` with every estimate;
+/// `false` for an unknown variant.
+///
+/// # Panics
+/// Never for a valid variant.
+pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
+    if let Some(config) = check_config(variant) {
+        run_scene_with(config, scene::SCENE_HOPS, true, on_estimate);
+        return true;
+    }
+    let Some(kind) = variant
+        .checked_sub(CHECK_CONFIGS)
+        .and_then(|i| inputs::InputKind::from_index(i as u32))
+    else {
+        return false;
+    };
+    /// Forwards the estimates; no marks.
+    struct Forward<F>(F);
+    impl<F: FnMut(&Estimate)> HopMarks for Forward<F> {
+        fn pause(&mut self) {}
+        fn resume(&mut self) {}
+        fn hop(&mut self, e: &Estimate) {
+            (self.0)(e);
+        }
+    }
+    run_hops(
+        kind,
+        CHECK_KIND_HOPS,
+        FIRMWARE_BLOCK,
+        &mut Forward(on_estimate),
+    );
+    true
+}
 
 /// Generates `hops` hops of the scene block by block and, when `process` is set, runs them through a
 /// default [`cma_core::Locator`] at 48 kHz, calling `on_estimate` for each estimate.
@@ -175,6 +218,7 @@ pub fn run_hops(kind: inputs::InputKind, hops: usize, block: usize, marks: &mut 
     for _ in 0..hops * scene::HOP_SAMPLES / block.len() {
         marks.pause();
         input.fill(block);
+        core::hint::black_box(&*block);
         marks.resume();
         locator.process_block(block, |e| marks.hop(e));
     }
