@@ -74,8 +74,8 @@ impl InputGuard {
     /// countdowns end as after the per-sample calls on the returned frames; the caller continues
     /// with the rest of `block`.
     ///
-    /// Integer scans (see [`InputGuard::all_below_level`]): the first frame with a value at or
-    /// above the clip level; from there whether a value changes (beyond full scale, or not
+    /// Integer scans (|v| ≥ level ⟺ 2·abs_bits(v) ≥ 2·bits(level) for a level > 0, NaN and ±Inf
+    /// included): the first frame with a value at or above the clip level; from there whether a value changes (beyond full scale, or not
     /// finite), and if none does, the last clipped frame, searched backwards.
     #[inline]
     pub fn clean_block<'a>(

@@ -119,7 +119,7 @@ impl Input {
                 if self.kind == InputKind::NanBursts {
                     for (i, frame) in out.iter_mut().enumerate() {
                         let n = self.n + i as u32;
-                        if n % 24_000 < 2_400 && n % 16 == 0 {
+                        if n % 24_000 < 2_400 && n.is_multiple_of(16) {
                             let bad = [f32::NAN, f32::INFINITY, f32::NAN, f32::NEG_INFINITY];
                             frame[(n / 16) as usize % CHANNELS] = bad[(n / 64) as usize % 4];
                         }
