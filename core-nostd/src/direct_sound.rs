@@ -48,7 +48,7 @@ impl DirectSound {
         let i = intensity(w, x, y);
         let e = 0.5 * (w.norm_sqr() + x.norm_sqr() + y.norm_sqr());
         if e > 0.0 {
-            (libm::sqrtf(i[0] * i[0] + i[1] * i[1]) / e).clamp(0.0, 1.0)
+            (crate::fast_math::sqrtf(i[0] * i[0] + i[1] * i[1]) / e).clamp(0.0, 1.0)
         } else {
             0.0
         }
@@ -59,14 +59,25 @@ impl DirectSound {
     pub fn peak_weight(&self, state: &OnsetState, k: usize, p: f32, delta: f32) -> f32 {
         let mut w = 1.0;
         if self.directness_exponent > 0.0 {
-            w *= libm::powf(delta, self.directness_exponent);
+            w *= pow_weight(delta, self.directness_exponent);
         }
         if self.onset_exponent > 0.0 {
             let avg = state.avg[k];
             let rise = if p > 0.0 { 1.0 - avg / p } else { 0.0 };
-            w *= libm::powf(rise.max(self.onset_floor), self.onset_exponent);
+            w *= pow_weight(rise.max(self.onset_floor), self.onset_exponent);
         }
         w
+    }
+}
+
+/// `x^e` for a weight base `x` in [0, 1]: `x` itself for `e` = 1 (what `libm::powf` returns there,
+/// without its ≈ 25 instructions on the Cortex-M4F; tested), else `libm::powf`.
+#[inline]
+fn pow_weight(x: f32, e: f32) -> f32 {
+    if e == 1.0 {
+        x
+    } else {
+        libm::powf(x, e)
     }
 }
 
@@ -107,6 +118,26 @@ impl OnsetState {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The exponent-1 shortcut is `libm::powf` bit for bit on weight bases: every float in [2⁻²⁰, 1]
+    /// with a stride, 0, and the onset floor.
+    #[test]
+    fn unit_exponent_equals_powf() {
+        let mut bits = (2.0f32.powi(-20)).to_bits();
+        while bits <= 1.0f32.to_bits() {
+            let x = f32::from_bits(bits);
+            assert_eq!(
+                pow_weight(x, 1.0).to_bits(),
+                libm::powf(x, 1.0).to_bits(),
+                "{x}"
+            );
+            bits += 97;
+        }
+        for x in [0.0f32, 0.1, 1.0] {
+            assert_eq!(pow_weight(x, 1.0).to_bits(), libm::powf(x, 1.0).to_bits());
+            assert_eq!(pow_weight(x, 0.5).to_bits(), libm::powf(x, 0.5).to_bits());
+        }
+    }
 
     #[test]
     fn plane_wave_is_fully_direct() {

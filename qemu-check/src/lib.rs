@@ -7,6 +7,7 @@
 //! instruction-counting TCG plugin.
 #![no_std]
 
+pub mod inputs;
 pub mod scene;
 pub mod stages;
 
@@ -20,8 +21,8 @@ pub const MODE_ADDR: u32 = 0x2030_0000;
 /// What the target program does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
-    /// Run the whole scene through the localizer configured as [`check_config`]`(arg)` and print
-    /// every estimate ([`EstimateBits`]).
+    /// Run check variant `arg` ([`run_check`]: the scene through a [`check_config`], or an input
+    /// kind in the firmware's blocks) and print every estimate ([`EstimateBits`]).
     Check,
     /// Generate and process `arg` hops of the scene without printing.
     Pipeline,
@@ -29,6 +30,10 @@ pub enum Mode {
     Generate,
     /// Run one stage `arg` times on a fixed analysis frame ([`stages::Stage`]).
     Stage(stages::Stage),
+    /// Run `(arg >> 8) & 0xfff` hops of input kind `arg & 0xff` ([`inputs::InputKind::from_index`])
+    /// through the default localizer in blocks of `arg >> 20` sample frames, or of
+    /// [`FIRMWARE_BLOCK`] for 0 ([`run_hops`]), for per-hop instruction counts.
+    Hops,
 }
 
 impl Mode {
@@ -39,6 +44,7 @@ impl Mode {
             0 => Mode::Check,
             1 => Mode::Pipeline,
             2 => Mode::Generate,
+            8 => Mode::Hops,
             w => Mode::Stage(stages::Stage::from_word(w)?),
         })
     }
@@ -68,6 +74,10 @@ impl fmt::Display for EstimateBits<'_> {
 /// Sample frames per block fed to the localizer (any size gives the same estimates).
 pub const BLOCK: usize = 256;
 
+/// Sample frames per block the firmware passes to the localizer (its DMA half-block; a test keeps
+/// this equal to the firmware's constant).
+pub const FIRMWARE_BLOCK: usize = 32;
+
 /// Configurations the bit-for-bit check runs (the argument of [`Mode::Check`]): the product default,
 /// the default with the active-ratio features, and the thesis configuration (one-pole curve filter
 /// instead of the grid tracker).
@@ -85,6 +95,49 @@ pub fn check_config(variant: usize) -> Option<cma_core::LocatorConfig> {
 
 /// Number of [`check_config`] variants.
 pub const CHECK_CONFIGS: usize = 3;
+
+/// Number of variants [`Mode::Check`] runs: the [`check_config`] ones, then each
+/// [`inputs::InputKind`] through the default configuration in the firmware's blocks
+/// ([`run_check`]).
+pub const CHECK_VARIANTS: usize = CHECK_CONFIGS + inputs::InputKind::ALL.len();
+
+/// Hops of an input kind in the bit-for-bit check (2.56 s: six NaN bursts, the scene's first
+/// four positions).
+pub const CHECK_KIND_HOPS: usize = 120;
+
+/// Runs check variant `variant` (< [`CHECK_VARIANTS`]) and calls `on_estimate` with every estimate;
+/// `false` for an unknown variant.
+///
+/// # Panics
+/// Never for a valid variant.
+pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
+    if let Some(config) = check_config(variant) {
+        run_scene_with(config, scene::SCENE_HOPS, true, on_estimate);
+        return true;
+    }
+    let Some(kind) = variant
+        .checked_sub(CHECK_CONFIGS)
+        .and_then(|i| inputs::InputKind::from_index(i as u32))
+    else {
+        return false;
+    };
+    /// Forwards the estimates; no marks.
+    struct Forward<F>(F);
+    impl<F: FnMut(&Estimate)> HopMarks for Forward<F> {
+        fn pause(&mut self) {}
+        fn resume(&mut self) {}
+        fn hop(&mut self, e: &Estimate) {
+            (self.0)(e);
+        }
+    }
+    run_hops(
+        kind,
+        CHECK_KIND_HOPS,
+        FIRMWARE_BLOCK,
+        &mut Forward(on_estimate),
+    );
+    true
+}
 
 /// Generates `hops` hops of the scene block by block and, when `process` is set, runs them through a
 /// default [`cma_core::Locator`] at 48 kHz, calling `on_estimate` for each estimate.
@@ -128,5 +181,45 @@ pub fn run_scene_with(
             core::hint::black_box(&block);
         }
         left -= n;
+    }
+}
+
+/// Marks in a [`run_hops`] run, for an instruction counter that follows the program counter
+/// (`scripts/insn-count.c`): input generation is bracketed by `pause` and `resume`, and `hop` is
+/// called with every estimate.
+pub trait HopMarks {
+    /// Input generation starts.
+    fn pause(&mut self);
+    /// Input generation has ended.
+    fn resume(&mut self);
+    /// An estimate (one hop) is complete.
+    fn hop(&mut self, e: &Estimate);
+}
+
+/// Longest block [`run_hops`] takes (one hop).
+pub const MAX_BLOCK: usize = scene::HOP_SAMPLES;
+
+/// Runs `hops` hops of `kind` through a default [`cma_core::Locator`] at 48 kHz in blocks of `block`
+/// sample frames (at most [`MAX_BLOCK`]; the firmware's is [`FIRMWARE_BLOCK`]), as the firmware
+/// calls it.
+///
+/// # Panics
+/// Never (the default configuration is valid at 48 kHz).
+pub fn run_hops(kind: inputs::InputKind, hops: usize, block: usize, marks: &mut impl HopMarks) {
+    let mut locator = cma_core::Locator::new(
+        cma_core::LocatorConfig::default(),
+        cma_core::ReferenceTable::ideal_5deg(),
+        scene::RATE_HZ,
+    )
+    .expect("configuration valid at 48 kHz");
+    let mut input = inputs::Input::new(kind);
+    let mut buf = [[0.0f32; cma_core::CHANNELS]; MAX_BLOCK];
+    let block = &mut buf[..block.clamp(1, MAX_BLOCK)];
+    for _ in 0..hops * scene::HOP_SAMPLES / block.len() {
+        marks.pause();
+        input.fill(block);
+        core::hint::black_box(&*block);
+        marks.resume();
+        locator.process_block(block, |e| marks.hop(e));
     }
 }

@@ -1,10 +1,13 @@
 //! The QEMU check program for the Cortex-M4F (`qemu-system-arm -machine mps2-an386`).
 //!
 //! It reads a mode word at [`qemu_check::MODE_ADDR`] (0 unless QEMU's generic loader sets it) and
-//! * mode 0: runs the test scene through the localizer (configuration `arg`, see
-//!   [`qemu_check::check_config`]) and prints every estimate's bits over semihosting, then `END <count>`;
+//! * mode 0: runs check variant `arg` ([`qemu_check::run_check`]: the test scene through a
+//!   configuration, or an input kind in the firmware's blocks) and prints every estimate's bits over
+//!   semihosting, then `END <count>`;
 //! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
-//!   instruction counting (`scripts/cost.sh`).
+//!   instruction counting (`scripts/cost.sh`);
+//! * mode 8: runs hops of an input kind in the firmware's blocks (see [`qemu_check::Mode::Hops`]), entering
+//!   the mark functions that `scripts/cost.sh` follows for per-hop counts.
 //!
 //! It exits QEMU with status 0, or 1 after a panic or a HardFault.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -12,11 +15,56 @@
 #[cfg(target_os = "none")]
 mod target {
     use core::mem::MaybeUninit;
+    use core::sync::atomic::{compiler_fence, Ordering::SeqCst};
+    use cortex_m::asm::nop;
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hprintln};
     use qemu_check::{
-        check_config, run_scene, run_scene_with, stages::Bench, EstimateBits, Mode, MODE_ADDR,
+        inputs::InputKind, run_check, run_hops, run_scene, stages::Bench, EstimateBits, HopMarks,
+        Mode, FIRMWARE_BLOCK, MODE_ADDR,
     };
+
+    // The mark functions: `scripts/cost.sh` finds them by name. Their `nop`s (an `asm!` each, which
+    // the optimiser keeps) make the bodies different, so that none is removed or merged with another;
+    // their fences keep the compiler from moving memory accesses (input generation) across them.
+
+    /// Entered before input generation.
+    #[inline(never)]
+    fn cost_mark_pause() {
+        compiler_fence(SeqCst);
+        nop();
+    }
+
+    /// Entered after input generation.
+    #[inline(never)]
+    fn cost_mark_resume() {
+        compiler_fence(SeqCst);
+        nop();
+        nop();
+    }
+
+    /// Entered with every estimate.
+    #[inline(never)]
+    fn cost_mark_hop() {
+        compiler_fence(SeqCst);
+        nop();
+        nop();
+        nop();
+    }
+
+    struct Marks;
+
+    impl HopMarks for Marks {
+        fn pause(&mut self) {
+            cost_mark_pause();
+        }
+        fn resume(&mut self) {
+            cost_mark_resume();
+        }
+        fn hop(&mut self, _: &cma_core::Estimate) {
+            cost_mark_hop();
+        }
+    }
 
     #[entry]
     fn main() -> ! {
@@ -31,21 +79,32 @@ mod target {
         };
         match Mode::from_word(word) {
             Some(Mode::Check) => {
-                let Some(config) = check_config(arg) else {
-                    hprintln!("unknown configuration {}", arg);
-                    exit(debug::EXIT_FAILURE)
-                };
                 let mut n = 0u32;
-                run_scene_with(config, qemu_check::scene::SCENE_HOPS, true, |e| {
+                let known = run_check(arg, |e| {
                     hprintln!("{}", EstimateBits(e));
                     n += 1;
                 });
+                if !known {
+                    hprintln!("unknown check variant {}", arg);
+                    exit(debug::EXIT_FAILURE)
+                }
                 hprintln!("END {}", n);
             }
             Some(Mode::Pipeline) => run_scene(arg, true, |e| {
                 core::hint::black_box(e);
             }),
             Some(Mode::Generate) => run_scene(arg, false, |_| {}),
+            Some(Mode::Hops) => {
+                let Some(kind) = InputKind::from_index(arg as u32 & 0xff) else {
+                    hprintln!("unknown input kind {}", arg & 0xff);
+                    exit(debug::EXIT_FAILURE)
+                };
+                let block = match arg >> 20 {
+                    0 => FIRMWARE_BLOCK,
+                    b => b,
+                };
+                run_hops(kind, (arg >> 8) & 0xfff, block, &mut Marks);
+            }
             Some(Mode::Stage(stage)) => {
                 let mut slot = MaybeUninit::uninit();
                 let bench = Bench::new(&mut slot);

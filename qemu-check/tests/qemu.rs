@@ -2,13 +2,13 @@
 //!
 //! Builds `qemu-check` for `thumbv7em-none-eabihf` (release), runs it on `qemu-system-arm -machine
 //! mps2-an386` under `timeout`, and compares its output line by line with the same scene run through
-//! the host build of the core, for each configuration of `qemu_check::check_config` (the default, the
-//! default with active-ratio features, the thesis configuration). Without `qemu-system-arm` the test is skipped with a message, except when
-//! `CI` is set: then it fails.
+//! the host build of the core, for each variant of `qemu_check::run_check`: the scene through each
+//! configuration of `qemu_check::check_config` (the default, the default with active-ratio features,
+//! the thesis configuration), and each input kind of `qemu_check::inputs` (speech, clipping bursts,
+//! NaN bursts, silence, full-scale noise) through the default in the firmware's blocks. Without
+//! `qemu-system-arm` the test is skipped with a message, except when `CI` is set: then it fails.
 
-use qemu_check::{
-    check_config, run_scene_with, scene::SCENE_HOPS, EstimateBits, CHECK_CONFIGS, MODE_ADDR,
-};
+use qemu_check::{run_check, EstimateBits, CHECK_VARIANTS, MODE_ADDR};
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -38,11 +38,8 @@ fn have_qemu() -> bool {
 }
 
 fn host_lines(variant: usize) -> Vec<String> {
-    let config = check_config(variant).expect("a check variant");
     let mut lines = Vec::new();
-    run_scene_with(config, SCENE_HOPS, true, |e| {
-        lines.push(EstimateBits(e).to_string())
-    });
+    assert!(run_check(variant, |e| lines.push(EstimateBits(e).to_string())));
     lines.push(format!("END {}", lines.len()));
     lines
 }
@@ -67,7 +64,7 @@ fn target_estimates_equal_host_estimates_bit_for_bit() {
         .expect("run cargo");
     assert!(status.success(), "building qemu-check for {TARGET} failed");
 
-    for variant in 0..CHECK_CONFIGS {
+    for variant in 0..CHECK_VARIANTS {
         compare_variant(variant);
     }
 }
