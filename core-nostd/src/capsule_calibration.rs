@@ -475,6 +475,9 @@ pub struct CapsuleCalibrationState {
     forget: f32,
 }
 
+/// Confidence from which all-background frames are checked for a directional background.
+const DIRECTIONAL_CONFIDENCE: f32 = 0.3;
+
 /// Pole of the directional share's average over all-background frames.
 const DIRECTIONAL_POLE: f32 = 0.05;
 
@@ -669,10 +672,12 @@ impl CapsuleCalibrationState {
         }
         self.frame_used = false;
         let frame = core::mem::replace(&mut self.frame, [BandSums::ZERO; CAL_BANDS]);
-        // A frame that is background in every band is the background's own sound: while such
-        // frames' curves point somewhere, the background is directional (a fan, a loudspeaker)
-        // and nothing is learned, from them or from the background bands of other frames.
-        if self.band_background.iter().all(|b| *b) {
+        // A frame that is background in every band is the background's own sound. Once the
+        // estimate stands (before, the capsules' own errors make a diffuse background's curve
+        // point somewhere too), such frames' curves pointing somewhere mean a directional
+        // background (a fan, a loudspeaker switched on): nothing is learned while it lasts, from
+        // them or from the background bands of other frames.
+        if self.band_background.iter().all(|b| *b) && self.confidence() >= DIRECTIONAL_CONFIDENCE {
             let hit = if directional { 1.0 } else { 0.0 };
             self.directional_share += DIRECTIONAL_POLE * (hit - self.directional_share);
         }
