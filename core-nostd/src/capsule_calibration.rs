@@ -54,6 +54,7 @@ pub const CAL_BANDS: usize = 4;
 
 /// Upper edges of the bands, Hz (the last band runs to Nyquist).
 pub const CAL_BAND_EDGES_HZ: [f32; CAL_BANDS - 1] = [500.0, 1000.0, 2000.0];
+const _: () = assert!(CAL_BANDS == 4, "band_of_bin compares with three edges");
 
 /// How much more evidence the dipole parts' deviations need than the omni parts': the talker's
 /// reverberation in the background biases their cross-powers, and the omni parts' errors cost more
@@ -445,8 +446,6 @@ impl Correction {
 #[derive(Debug, Clone)]
 pub struct CapsuleCalibrationState {
     settings: CapsuleCalibration,
-    /// Band of each bin.
-    bin_band: [u8; NUM_BINS],
     /// The accepted long-term sums.
     sums: [BandSums; CAL_BANDS],
     /// The batch of background frames since the last merge, not yet checked for diffuseness.
@@ -499,7 +498,6 @@ impl CapsuleCalibrationState {
     pub const fn idle() -> Self {
         Self {
             settings: CapsuleCalibration::OFF,
-            bin_band: [0; NUM_BINS],
             sums: [BandSums::ZERO; CAL_BANDS],
             batch: [BandSums::ZERO; CAL_BANDS],
             batch_frames: 0,
@@ -529,20 +527,16 @@ impl CapsuleCalibrationState {
     ) -> Self {
         let mut s = Self::idle();
         s.settings = settings;
-        for (k, band) in s.bin_band.iter_mut().enumerate() {
+        let band_of = |k: usize| {
             let f = crate::spectrum::bin_frequency(k, fs);
-            *band = CAL_BAND_EDGES_HZ.iter().filter(|e| f >= **e).count() as u8;
-        }
+            CAL_BAND_EDGES_HZ.iter().filter(|e| f >= **e).count()
+        };
         for (b, range) in s.band_bins.iter_mut().enumerate() {
-            let start = s
-                .bin_band
-                .iter()
-                .position(|x| *x as usize >= b)
+            let start = (0..NUM_BINS)
+                .position(|k| band_of(k) >= b)
                 .unwrap_or(NUM_BINS);
-            let end = s
-                .bin_band
-                .iter()
-                .position(|x| *x as usize > b)
+            let end = (0..NUM_BINS)
+                .position(|k| band_of(k) > b)
                 .unwrap_or(NUM_BINS);
             *range = (start as u16, end as u16);
         }
@@ -597,6 +591,15 @@ impl CapsuleCalibrationState {
             .fold(1.0, f32::min)
     }
 
+    /// The band of bin `k` (three comparisons: [`CAL_BANDS`] is 4).
+    #[inline]
+    fn band_of_bin(&self, k: usize) -> usize {
+        let k = k as u16;
+        (self.band_bins[0].1 <= k) as usize
+            + (self.band_bins[1].1 <= k) as usize
+            + (self.band_bins[2].1 <= k) as usize
+    }
+
     /// Starts a frame: from the omni powers `omni_power` of the bins `lo..=hi` (the analysis band)
     /// each band's power, its tracked floor and whether the band is background in this frame (its
     /// power within [`CapsuleCalibration::background_db`] of the floor; never when not `clean`).
@@ -631,7 +634,7 @@ impl CapsuleCalibrationState {
         w: Complex32,
         x: [Complex32; CARDIOIDS],
     ) -> [Complex32; CARDIOIDS] {
-        let band = self.bin_band.get(k).copied().unwrap_or(0) as usize % CAL_BANDS;
+        let band = self.band_of_bin(k);
         if self.band_background[band] && self.settings.adapt {
             let re = |p: Complex32, q: Complex32| p.re * q.re + p.im * q.im;
             let s = &mut self.frame[band];
@@ -806,8 +809,9 @@ mod tests {
             assert_eq!(w[0].1, w[1].0);
         }
         // 500 Hz at 12 kHz is bin 21.33: bin 21 is below, bin 22 above.
-        assert_eq!(st.bin_band[21], 0);
-        assert_eq!(st.bin_band[22], 1);
+        assert_eq!(st.band_of_bin(21), 0);
+        assert_eq!(st.band_of_bin(22), 1);
+        assert_eq!(st.band_of_bin(NUM_BINS - 1), CAL_BANDS - 1);
     }
 
     #[test]
