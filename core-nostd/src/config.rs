@@ -123,7 +123,7 @@ pub struct LocatorConfig {
     pub tdiv_pole: f32,
     /// FDIV smoothing pole a of the per-bin intensity.
     pub fdiv_pole: f32,
-    // Thesis alternatives (issue 6); the defaults leave the method above unchanged.
+    // Thesis alternatives; the defaults leave the method above unchanged.
     /// Frame quality measures and binary threshold b_TH (§5.1.6, eq. 5.21–5.29, 5.36).
     pub quality: FrameQuality,
     /// Noise-floor gate of the reliability b (similarity method; not in the thesis).

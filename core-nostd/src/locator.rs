@@ -83,7 +83,7 @@ pub struct Locator<'t> {
     /// Frame index and omni energy of the newest hop of the last frame (the next frame's older hop).
     last_hop_energy: (u32, f32),
     diagnostics: FrameDiagnostics,
-    /// State of the eq. 5.30 result filter (issue 6 options).
+    /// State of the eq. 5.30 result filter (a thesis option).
     cartesian: CartesianFilter,
     /// Background power for the noise-floor gate.
     noise_floor: NoiseFloor,
@@ -516,7 +516,7 @@ impl<'t> Locator<'t> {
                 self.picker.hi_bin,
             )
         };
-        // Issue 6: FDIV reliability from the circular std over bins (§5.2.2), off by default.
+        // Thesis option: FDIV reliability from the circular std over bins (§5.2.2), off by default.
         let iv = if self.config.method == Method::Fdiv && self.config.fdiv_spread.enabled() {
             self.fdiv_spread_frame(iv)
         } else {
@@ -649,7 +649,7 @@ impl<'t> Locator<'t> {
             variance = curve_variance_with_sum(curve, sum);
             curve_reliability = self.config.reliability.coefficient(variance);
             b *= curve_reliability;
-            // Issue 6: alternative frame quality measures / binary b (frame_quality.rs).
+            // Thesis option: alternative frame quality measures / binary b (frame_quality.rs).
             if !self.config.quality.is_default() {
                 b = gate
                     * self.config.quality.coefficient(
@@ -714,7 +714,7 @@ impl<'t> Locator<'t> {
             flags.insert(Flags::NO_HISTORY);
             raw.unwrap_or(self.last_azimuth)
         };
-        // Issue 6: combination rule 2 and/or Cartesian result filtering (off by default).
+        // Thesis options: combination rule 2 and/or Cartesian result filtering (off by default).
         let (azimuth, raw) = if self.config.combination != Combination::MeanCurve
             || self.config.smoothing == Smoothing::Cartesian
         {
@@ -731,7 +731,7 @@ impl<'t> Locator<'t> {
         (azimuth, raw.unwrap_or(azimuth), b)
     }
 
-    // ---- Issue 6 options (combination.rs, cartesian_filter.rs); not reached with the defaults ----
+    // ---- Thesis options (combination.rs, cartesian_filter.rs); not reached with the defaults ----
 
     /// Rule 2 (eq. 5.13) replaces the frame's raw azimuth; the eq. 5.30 filter (the only one that
     /// applies to a rule-2 estimate) replaces the curve filter's azimuth.

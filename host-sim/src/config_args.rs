@@ -286,7 +286,7 @@ pub struct ConfigArgs {
     /// TDIV smoothing pole.
     #[arg(long)]
     pub tdiv_pole: Option<f32>,
-    /// Thesis alternatives (issue 6, see `docs/options.md`).
+    /// Thesis alternatives (see `docs/options.md`).
     #[command(flatten)]
     pub options: crate::options_eval::OptionArgs,
 }

@@ -31,7 +31,7 @@ pub enum SmoothingArg {
     Cartesian,
 }
 
-/// Flags of the thesis alternatives (issue 6). Unset flags keep the preset's value.
+/// Flags of the thesis alternatives. Unset flags keep the preset's value.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct OptionArgs {
     /// Frame quality measures multiplied into b (eq. 5.36): comma list of `variance`, `power`,
