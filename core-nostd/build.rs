@@ -207,8 +207,9 @@ fn fft_tables(out: &mut String) {
     );
 }
 
-/// Emits the `MEASURED_*` statics of the reference-table file named by `CMA_TABLE`; a bad file fails
-/// the build with the parser's message.
+/// Emits the `MEASURED_*` statics of the reference-table file named by `CMA_TABLE` (version 1 or 2;
+/// for version 1 the active rows are its magnitude features and ½); a bad file fails the build with
+/// the parser's message.
 fn measured_table(out: &mut String, path: &std::path::Path) {
     let path = if path.is_absolute() {
         path.to_path_buf()
@@ -246,10 +247,27 @@ fn measured_table(out: &mut String, path: &std::path::Path) {
         writeln!(out, "];").unwrap();
     };
     feature_array(
-        &format!("/// Features of the measured table `{src}`, frequency-major."),
+        &format!("/// Magnitude features of the measured table `{src}`, frequency-major."),
         "MEASURED_FEATURES",
         f * q,
         &|i| v.feature(i),
+    );
+    let origin = if v.has_active() {
+        "measured"
+    } else {
+        "a version-1 file: its magnitude features"
+    };
+    feature_array(
+        &format!("/// Active features of the measured table ({origin}), frequency-major."),
+        "MEASURED_ACTIVE",
+        f * q,
+        &|i| v.active_feature(i),
+    );
+    feature_array(
+        &format!("/// Omni-noise features of the active ratios of the measured table ({origin}: ½ for version 1)."),
+        "MEASURED_NOISE_ACTIVE",
+        f,
+        &|i| v.noise_active(i),
     );
     feature_array(
         "/// Omni-noise features (magnitude mixing) of the measured table.",

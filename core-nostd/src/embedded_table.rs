@@ -4,8 +4,10 @@
 //! `build.rs` reads the file named by `CMA_TABLE` (an absolute path, or one relative to the
 //! `core-nostd` directory) with [`crate::table_file::parse`], fails the build with the parser's message
 //! if the file is bad, and emits its arrays as `static`s (`MEASURED_*` in [`crate::tables`]), so the
-//! table sits in flash once. Flash cost: 12·F·Q + 28·F + 4·Q bytes (f32), e.g. 37.7 KB for the default
-//! calibration (Q = 72, F = 42). Rebuilds follow changes of the variable and of the file.
+//! table sits in flash once. It holds the rows of both feature kinds (magnitude and active; a
+//! version-1 file's active rows are its magnitude features and ½). Flash cost: 24·F·Q + 40·F + 4·Q
+//! bytes (f32), e.g. 74.5 KB for the default calibration (Q = 72, F = 42), 13.0 KB for a 15° grid
+//! with 21 rows (Q = 24, F = 21). Rebuilds follow changes of the variable and of the file.
 //!
 //! ```text
 //! CMA_TABLE=/abs/path/array42.cmat cargo build --release -p firmware
@@ -25,18 +27,20 @@ impl ReferenceTable<'static> {
         #[cfg(cma_measured_table)]
         {
             use crate::tables::{
-                MEASURED_AZIMUTHS, MEASURED_FEATURES, MEASURED_FREQS, MEASURED_NOISE_MAGNITUDE,
-                MEASURED_NOISE_POWER,
+                MEASURED_ACTIVE, MEASURED_AZIMUTHS, MEASURED_FEATURES, MEASURED_FREQS,
+                MEASURED_NOISE_ACTIVE, MEASURED_NOISE_MAGNITUDE, MEASURED_NOISE_POWER,
             };
-            // Note: build.rs validated shape and content with the same rules as `new`, so this
-            // cannot fail; the ideal table is only a formal fallback.
-            if let Ok(t) = ReferenceTable::new(
+            // Note: build.rs validated shape and content with the same rules as `new` and
+            // `with_active`, so this cannot fail; the ideal table is only a formal fallback.
+            let table = ReferenceTable::new(
                 &MEASURED_AZIMUTHS,
                 &MEASURED_FREQS,
                 &MEASURED_FEATURES,
                 &MEASURED_NOISE_MAGNITUDE,
                 &MEASURED_NOISE_POWER,
-            ) {
+            )
+            .and_then(|t| t.with_active(&MEASURED_ACTIVE, &MEASURED_NOISE_ACTIVE));
+            if let Ok(t) = table {
                 return t;
             }
         }
@@ -57,6 +61,7 @@ mod tests {
             let t = ReferenceTable::embedded();
             assert_ne!(t, ReferenceTable::ideal_5deg());
             assert_eq!(t.features().len(), t.num_freqs() * t.num_azimuths());
+            assert_eq!(t.active_features().len(), t.features().len());
         }
     }
 }

@@ -9,7 +9,9 @@
 //!   E[X_c·X_0*] = ½·E|X_0|²: noise pulls the active ratio straight toward 0.5 (with SNR s, to
 //!   (s·Y + ½)/(s + 1), a linear mix — the magnitude mixing of the noisy references with Y_η = ½),
 //!   while the magnitude ratio is pulled toward √(⅓) along a curved path that the linear mix only
-//!   approximates.
+//!   approximates. Real capsules move that point: a measured table carries the active ratio's own
+//!   noise row Re(E[X_c·X_0*])/E|X_0|² ([`crate::ReferenceTable::rows`]), which is ½ for the ideal
+//!   model.
 //! * **Reflections.** With O = D + R·z and X_c = d_c·D + r_c·R·z (direct and one reflection, z the
 //!   phase e^{−jωτ}), X_c / O is analytic in z on the unit disc when |R| < |D|, so its mean over
 //!   uniformly spread phases is its value at z = 0: d_c, the direct sound's feature. Averaging over
@@ -49,16 +51,6 @@ impl FeatureKind {
         match self {
             FeatureKind::Magnitude => feature_from_powers(omni_power, cardioids.map(power)),
             FeatureKind::Active => active_features(omni, omni_power, cardioids),
-        }
-    }
-
-    /// The diffuse-noise feature Y_η the noisy references mix toward, when it is the same for every
-    /// frequency row regardless of the table (the active ratio: ½ per cardioid); `None`: the table's.
-    #[must_use]
-    pub fn noise_feature(self) -> Option<Feature> {
-        match self {
-            FeatureKind::Magnitude => None,
-            FeatureKind::Active => Some([0.5; CARDIOIDS]),
         }
     }
 }
@@ -177,12 +169,6 @@ mod tests {
             worst_mag > 0.02,
             "magnitude ratio unexpectedly unbiased: {worst_mag}"
         );
-    }
-
-    #[test]
-    fn noise_feature_per_kind() {
-        assert_eq!(FeatureKind::Magnitude.noise_feature(), None);
-        assert_eq!(FeatureKind::Active.noise_feature(), Some([0.5; 3]));
     }
 
     #[test]

@@ -1,10 +1,18 @@
-//! Reference feature table (thesis eq. 5.8, §5.1.5): features |H_c|/|H_0| for Q azimuths and, for a
-//! measured table, for F frequencies (nearest-neighbour frequency alignment).
+//! Reference feature table (thesis eq. 5.8, §5.1.5): features for Q azimuths and, for a measured
+//! table, for F frequencies (nearest-neighbour frequency alignment).
+//!
+//! A table holds one set of rows per [`FeatureKind`]: the magnitude features |H_c|/|H_0| (eq. 5.8)
+//! with their omni-noise rows for magnitude and power mixing, and the active features Re(H_c/H_0)
+//! with their own omni-noise row. [`ReferenceTable::rows`] gives the set the configured feature kind
+//! compares with. For the ideal model both sets are the same numbers (½ + ½·cos, noise ½); a
+//! measured table of real capsules differs, e.g. a cardioid with β > ½ has a negative active ratio
+//! behind it, where its magnitude ratio is positive.
 //!
 //! The table only borrows its data, so the same type holds the ideal-model `static`s generated at
 //! build time (flash on the target) and tables loaded or measured at run time on the host.
 
 use crate::error::Error;
+use crate::features::FeatureKind;
 use crate::tables::{
     IDEAL_AZIMUTHS_15DEG, IDEAL_AZIMUTHS_5DEG, IDEAL_FEATURES_15DEG, IDEAL_FEATURES_5DEG,
 };
@@ -21,6 +29,10 @@ static IDEAL_NOISE_MAGNITUDE: [Feature; 1] = [[0.5; CARDIOIDS]];
 /// E|card|²/E|omni|² = ¼ + ¼·⅓ = ⅓ (its square root is stored).
 static IDEAL_NOISE_POWER: [Feature; 1] = [[0.577_350_26; CARDIOIDS]];
 
+/// The active-ratio noise row of a table without measured active rows: ½ per cardioid, the value of
+/// ideal cardioids in any diffuse field (E[X_c·X_0*] = ½·E|X_0|²), valid for every frequency row.
+static HALF_NOISE: [Feature; 1] = [[0.5; CARDIOIDS]];
+
 /// A reference feature table.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReferenceTable<'a> {
@@ -29,10 +41,48 @@ pub struct ReferenceTable<'a> {
     features: &'a [Feature],
     noise_magnitude: &'a [Feature],
     noise_power: &'a [Feature],
+    /// F·Q active features Re(H_c/H_0), frequency-major.
+    active: &'a [Feature],
+    /// Active-ratio omni-noise rows: F rows, or one row valid for every frequency.
+    noise_active: &'a [Feature],
+}
+
+/// The rows of a [`ReferenceTable`] that one [`FeatureKind`] compares with: its features and the
+/// omni-noise feature Y_η its noisy references mix toward linearly (magnitude mixing, eq. 5.19).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeatureRows<'a> {
+    azimuths: usize,
+    features: &'a [Feature],
+    noise: &'a [Feature],
+}
+
+impl<'a> FeatureRows<'a> {
+    /// The Q features of frequency row `fi`.
+    #[inline]
+    #[must_use]
+    pub fn row(&self, fi: usize) -> &'a [Feature] {
+        let q = self.azimuths;
+        &self.features[fi * q..(fi + 1) * q]
+    }
+
+    /// Omni-noise feature Y_η of frequency row `fi` for linear (magnitude) mixing.
+    #[inline]
+    #[must_use]
+    pub fn noise(&self, fi: usize) -> Feature {
+        // One stored row (a table without measured active rows) serves every frequency.
+        self.noise[fi.min(self.noise.len() - 1)]
+    }
+
+    /// All features, frequency-major (`[f·Q + q]`).
+    #[must_use]
+    pub fn features(&self) -> &'a [Feature] {
+        self.features
+    }
 }
 
 impl<'a> ReferenceTable<'a> {
-    /// Builds a table from its parts.
+    /// Builds a table from its magnitude parts; its active rows are the magnitude features and its
+    /// active noise row is ½ (what a version-1 table file means, see [`ReferenceTable::with_active`]).
     ///
     /// * `azimuths_deg`: Q ≤ [`MAX_AZIMUTHS`] azimuths, strictly ascending within [0, 360);
     /// * `freqs_hz`: F ≥ 1 frequencies, ascending (F = 1: one row valid at all frequencies);
@@ -99,6 +149,41 @@ impl<'a> ReferenceTable<'a> {
             features,
             noise_magnitude,
             noise_power,
+            active: features,
+            noise_active: &HALF_NOISE,
+        })
+    }
+
+    /// The same table with measured active rows: `active` holds F·Q features Re(H_c/H_0),
+    /// frequency-major like the magnitude features, and `noise_active` the F omni-noise features of
+    /// the active ratio, Re(E[X_c·X_0*])/E|X_0|² (or one row valid for every frequency). Active
+    /// features may be negative (a cardioid with β > ½ behind it) but must be finite.
+    pub fn with_active(
+        self,
+        active: &'a [Feature],
+        noise_active: &'a [Feature],
+    ) -> Result<Self, Error> {
+        let (q, f) = (self.num_azimuths(), self.num_freqs());
+        if active.len() != f * q {
+            return Err(Error::TableShape {
+                expected: f * q,
+                got: active.len(),
+            });
+        }
+        if noise_active.len() != f && noise_active.len() != 1 {
+            return Err(Error::TableShape {
+                expected: f,
+                got: noise_active.len(),
+            });
+        }
+        let finite = |v: &Feature| v.iter().all(|x| x.is_finite());
+        if !active.iter().all(finite) || !noise_active.iter().all(finite) {
+            return Err(Error::InvalidConfig("active features must be finite"));
+        }
+        Ok(Self {
+            active,
+            noise_active,
+            ..self
         })
     }
 
@@ -111,6 +196,8 @@ impl<'a> ReferenceTable<'a> {
             features: &IDEAL_FEATURES_5DEG,
             noise_magnitude: &IDEAL_NOISE_MAGNITUDE,
             noise_power: &IDEAL_NOISE_POWER,
+            active: &IDEAL_FEATURES_5DEG,
+            noise_active: &HALF_NOISE,
         }
     }
 
@@ -123,6 +210,24 @@ impl<'a> ReferenceTable<'a> {
             features: &IDEAL_FEATURES_15DEG,
             noise_magnitude: &IDEAL_NOISE_MAGNITUDE,
             noise_power: &IDEAL_NOISE_POWER,
+            active: &IDEAL_FEATURES_15DEG,
+            noise_active: &HALF_NOISE,
+        }
+    }
+
+    /// The rows feature kind `kind` compares with: the magnitude features with the magnitude-mixing
+    /// noise row, or the active features with the active noise row.
+    #[inline]
+    #[must_use]
+    pub fn rows(&self, kind: FeatureKind) -> FeatureRows<'a> {
+        let (features, noise) = match kind {
+            FeatureKind::Magnitude => (self.features, self.noise_magnitude),
+            FeatureKind::Active => (self.active, self.noise_active),
+        };
+        FeatureRows {
+            azimuths: self.azimuths_deg.len(),
+            features,
+            noise,
         }
     }
 
@@ -150,10 +255,17 @@ impl<'a> ReferenceTable<'a> {
         self.freqs_hz
     }
 
-    /// All features, frequency-major.
+    /// All magnitude features |H_c|/|H_0|, frequency-major.
     #[must_use]
     pub fn features(&self) -> &'a [Feature] {
         self.features
+    }
+
+    /// All active features Re(H_c/H_0), frequency-major (the magnitude features for a table built
+    /// without them).
+    #[must_use]
+    pub fn active_features(&self) -> &'a [Feature] {
+        self.active
     }
 
     /// Index of the frequency row nearest to `f_hz`.
@@ -172,7 +284,7 @@ impl<'a> ReferenceTable<'a> {
         }
     }
 
-    /// The Q features of frequency row `fi`.
+    /// The Q magnitude features of frequency row `fi`.
     #[must_use]
     pub fn row(&self, fi: usize) -> &'a [Feature] {
         let q = self.azimuths_deg.len();
@@ -189,6 +301,12 @@ impl<'a> ReferenceTable<'a> {
     #[must_use]
     pub fn noise_power(&self, fi: usize) -> Feature {
         self.noise_power[fi]
+    }
+
+    /// Omni-noise feature of row `fi` for the active ratios (½ for a table without active rows).
+    #[must_use]
+    pub fn noise_active(&self, fi: usize) -> Feature {
+        self.rows(FeatureKind::Active).noise(fi)
     }
 }
 
@@ -212,6 +330,51 @@ mod tests {
         let back = t.row(0)[36];
         assert!((back[0] - 0.0).abs() < 1e-7 && (back[1] - 0.75).abs() < 1e-6);
         assert_eq!(ReferenceTable::ideal_15deg().num_azimuths(), 24);
+    }
+
+    /// Both ideal tables hold the same numbers for both feature kinds: the noisy references of the
+    /// active ratios mix toward ½, as the ideal model's diffuse field does.
+    #[test]
+    fn ideal_tables_serve_both_feature_kinds() {
+        for t in [ReferenceTable::ideal_5deg(), ReferenceTable::ideal_15deg()] {
+            let (m, a) = (t.rows(FeatureKind::Magnitude), t.rows(FeatureKind::Active));
+            assert_eq!(m.row(0), a.row(0));
+            assert_eq!(m.noise(0), [0.5; 3]);
+            assert_eq!(a.noise(0), [0.5; 3]);
+            assert_eq!(a.noise(40), [0.5; 3]);
+        }
+    }
+
+    #[test]
+    fn measured_active_rows_are_served_to_the_active_kind() {
+        let az = [0.0, 120.0, 240.0];
+        let fr = [100.0, 200.0];
+        let feats = [[0.5; 3]; 6];
+        let noise = [[0.5; 3]; 2];
+        let t = ReferenceTable::new(&az, &fr, &feats, &noise, &noise).unwrap();
+        // Without active rows: the magnitude features and ½.
+        assert_eq!(t.rows(FeatureKind::Active).row(1), &feats[3..]);
+        assert_eq!(t.noise_active(1), [0.5; 3]);
+        let mut active = [[0.25; 3]; 6];
+        active[4] = [1.0, -0.1, 0.1];
+        let na = [[0.4; 3], [0.45; 3]];
+        let t = t.with_active(&active, &na).unwrap();
+        let rows = t.rows(FeatureKind::Active);
+        assert_eq!(rows.row(1)[1], [1.0, -0.1, 0.1]);
+        assert_eq!(rows.noise(1), [0.45; 3]);
+        assert_eq!(t.rows(FeatureKind::Magnitude).row(1), &feats[3..]);
+        assert_eq!(t.rows(FeatureKind::Magnitude).noise(1), [0.5; 3]);
+        assert_eq!(
+            t.with_active(&active[..5], &na),
+            Err(Error::TableShape {
+                expected: 6,
+                got: 5
+            })
+        );
+        assert!(t.with_active(&active, &[[0.5; 3]; 3]).is_err());
+        let mut nan = active;
+        nan[2][0] = f32::NAN;
+        assert!(t.with_active(&nan, &na).is_err());
     }
 
     #[test]

@@ -11,7 +11,7 @@ use crate::refine_curve::DistancePower;
 
 /// Bucket scale of the α tables of [`NoisyReferences`].
 const LUT_SCALE: f32 = LUT_LEN as f32;
-use crate::reference_table::{Feature, ReferenceTable};
+use crate::reference_table::{Feature, FeatureRows, ReferenceTable};
 use crate::MAX_SNR_SETS;
 
 /// Similarity measure.
@@ -104,7 +104,7 @@ impl RowCache {
         }
     }
 
-    /// Forgets the cached row (call when the table changes).
+    /// Forgets the cached row (call when the table or the feature kind changes).
     pub fn clear(&mut self) {
         self.fi = usize::MAX;
     }
@@ -161,20 +161,12 @@ pub struct CurveBuilder {
     pub noisy: NoisyReferences,
     /// Apply [`mean_free`] to observed and reference features.
     pub mean_free: bool,
-    /// Which features are compared: the active ratios mix toward their own Y_η (½) instead of the
-    /// table's.
+    /// Which features are compared: the table's rows for this kind ([`ReferenceTable::rows`]) are
+    /// the references, and their noisy references mix toward that kind's omni-noise row.
     pub features: FeatureKind,
 }
 
 impl CurveBuilder {
-    /// Y_η of row `fi` for the magnitude mixing.
-    #[inline]
-    fn noise_mag(&self, table: &ReferenceTable<'_>, fi: usize) -> Feature {
-        self.features
-            .noise_feature()
-            .unwrap_or_else(|| table.noise_magnitude(fi))
-    }
-
     /// Adds `weight · max_i Sim(y, Y_ref(q, i))` to `curve[q]` for every azimuth q of frequency row `fi`.
     ///
     /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed
@@ -209,8 +201,9 @@ impl CurveBuilder {
         curve: &mut [f32],
         mut distance: Option<DistanceSum<'_>>,
     ) {
-        let row = table.row(fi);
-        let noise_mag = self.noise_mag(table, fi);
+        let rows = table.rows(self.features);
+        let row = rows.row(fi);
+        let noise_mag = rows.noise(fi);
         let noise_pow = table.noise_power(fi);
         let fast = self.measure == SimilarityMeasure::Euclidean
             && !self.mean_free
@@ -294,8 +287,9 @@ impl CurveBuilder {
             self.accumulate(table, fi, y, weight, curve);
             return;
         };
-        self.fill_cache(cache, table, fi);
-        let noise_mag = self.noise_mag(table, fi);
+        let rows = table.rows(self.features);
+        self.fill_cache(cache, &rows, fi);
+        let noise_mag = rows.noise(fi);
         self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q], None);
     }
 
@@ -336,10 +330,11 @@ impl CurveBuilder {
             return;
         };
         let curve = &mut curve[..q];
+        let rows = table.rows(self.features);
         let mut rest = peaks;
         while let Some(p) = rest.first() {
-            self.fill_cache(cache, table, p.fi);
-            let noise_mag = self.noise_mag(table, p.fi);
+            self.fill_cache(cache, &rows, p.fi);
+            let noise_mag = rows.noise(p.fi);
             let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
             let ds = distance.as_mut().map(DistanceSum::reborrow);
             if run == 2 {
@@ -402,13 +397,13 @@ impl CurveBuilder {
         ok.then_some(q)
     }
 
-    /// Makes `cache` hold row `fi`.
-    fn fill_cache(&self, cache: &mut RowCache, table: &ReferenceTable<'_>, fi: usize) {
+    /// Makes `cache` hold row `fi` of `rows` (the rows of this builder's feature kind).
+    fn fill_cache(&self, cache: &mut RowCache, rows: &FeatureRows<'_>, fi: usize) {
         if cache.fi == fi {
             return;
         }
-        let noise_mag = self.noise_mag(table, fi);
-        let entries = table
+        let noise_mag = rows.noise(fi);
+        let entries = rows
             .row(fi)
             .iter()
             .take(ROW_CACHE_LEN)
@@ -873,7 +868,9 @@ mod tests {
     }
 
     /// A batch of peaks (runs of equal and differing rows, weights ≠ 1) gives the bit-identical curve
-    /// of one `accumulate_cached` call per peak, and both match the direct evaluation.
+    /// of one `accumulate_cached` call per peak, and both match the direct evaluation against the
+    /// rows of the builder's feature kind: the active ratios compare with the table's active rows and
+    /// mix toward its active noise row, the magnitudes with the magnitude rows and noise.
     #[test]
     fn peak_batches_equal_single_peaks() {
         let ideal = ReferenceTable::ideal_5deg();
@@ -887,14 +884,26 @@ mod tests {
         }
         let noise = [[0.5f32; 3], [0.4, 0.5, 0.6], [0.7, 0.3, 0.5]];
         let freqs = [500.0f32, 1000.0, 2000.0];
-        let table =
-            ReferenceTable::new(ideal.azimuths_deg(), &freqs, &features, &noise, &noise).unwrap();
+        // Active rows: shifted down by 0.1 (negative behind the capsules), their own noise rows.
+        let active = features.map(|r| r.map(|v| v - 0.1));
+        let noise_active = [[0.45f32; 3], [0.35, 0.55, 0.5], [0.6, 0.4, 0.45]];
+        let table = ReferenceTable::new(ideal.azimuths_deg(), &freqs, &features, &noise, &noise)
+            .and_then(|t| t.with_active(&active, &noise_active))
+            .unwrap();
+        for kind in [FeatureKind::Magnitude, FeatureKind::Active] {
+            batches_of_peaks(&table, kind);
+        }
+    }
+
+    fn batches_of_peaks(table: &ReferenceTable<'_>, kind: FeatureKind) {
         let b = CurveBuilder {
             measure: SimilarityMeasure::Euclidean,
             noisy: NoisyReferences::new(NoiseMixing::Magnitude, -30.0, 40.0, 10.0).unwrap(),
             mean_free: false,
-            features: FeatureKind::Magnitude,
+            features: kind,
         };
+        let table = *table;
+        let rows_of_kind = table.rows(kind);
         let mut rng = crate::test_rng::Lcg(5);
         let mut rnd = || rng.unit();
         let rows = [0usize, 0, 0, 1, 2, 2, 0, 1, 1, 1, 1, 2];
@@ -917,13 +926,20 @@ mod tests {
             );
             let mut direct = [0.125f32; 72];
             for p in &peaks[..n] {
-                for (c, r) in direct.iter_mut().zip(table.row(p.fi)) {
-                    let nm = table.noise_magnitude(p.fi);
+                let (row, nm) = match kind {
+                    FeatureKind::Magnitude => (table.row(p.fi), table.noise_magnitude(p.fi)),
+                    FeatureKind::Active => (
+                        &table.active_features()[p.fi * 72..(p.fi + 1) * 72],
+                        table.noise_active(p.fi),
+                    ),
+                };
+                assert_eq!(row, rows_of_kind.row(p.fi));
+                for (c, r) in direct.iter_mut().zip(row) {
                     *c += p.weight * b.max_similarity(p.y, *r, nm, nm);
                 }
             }
             for (x, y) in batch.iter().zip(direct) {
-                assert!((x - y).abs() < 1e-5, "{n} peaks: {x} vs {y}");
+                assert!((x - y).abs() < 1e-5, "{kind:?}, {n} peaks: {x} vs {y}");
             }
         }
     }

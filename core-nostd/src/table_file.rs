@@ -5,22 +5,28 @@
 //! host tools (writer), the firmware build (reader) and the tests share one definition of the format.
 //! It uses nothing but `core`.
 //!
-//! # Format, version 1 (all numbers little-endian)
+//! # Format, version 2 (all numbers little-endian)
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 8 | magic `b"CMAREFT\0"` |
-//! | 8 | 2 | version, `u16` = 1 |
+//! | 8 | 2 | version, `u16` = 2 |
 //! | 10 | 2 | flags, `u16`, must be 0 (reserved) |
 //! | 12 | 2 | Q, number of azimuths, `u16` |
 //! | 14 | 2 | F, number of frequency rows, `u16` |
 //! | 16 | 4 | rate of the calibration recordings in Hz, `u32` (informational; 0 = unknown) |
 //! | 20 | 4·Q | azimuths, degrees, `f32`, ascending in [0, 360) |
 //! | … | 4·F | frequencies, Hz, `f32`, ascending |
-//! | … | 12·F·Q | features \|H_c\|/\|H_0\| (3 × `f32` per entry), frequency-major: entry f·Q + q |
+//! | … | 12·F·Q | magnitude features \|H_c\|/\|H_0\| (3 × `f32` per entry), frequency-major: entry f·Q + q |
 //! | … | 12·F | omni-noise feature for magnitude mixing (3 × `f32` per row) |
 //! | … | 12·F | omni-noise feature for power mixing, √ of the power ratio (3 × `f32` per row) |
+//! | … | 12·F·Q | active features Re(H_c/H_0), frequency-major (may be negative) |
+//! | … | 12·F | omni-noise feature of the active ratios, Re(Σ H_c·H_0*)/Σ\|H_0\|² (3 × `f32` per row) |
 //! | end − 4 | 4 | CRC-32 (IEEE 802.3, reflected, as zlib's `crc32`) of all preceding bytes |
+//!
+//! **Version 1** is the same without the two active blocks. It is still read: its active features
+//! are its magnitude features and its active noise row is ½ (the ideal model's value), which is what
+//! the core compared active ratios with before version 2 existed. [`serialize`] writes version 2.
 //!
 //! Values are stored as `f32`, so a file reproduces the calibrated table exactly (no quantisation
 //! error). The table is compact because F is small: the calibration stores rows only over the analysis
@@ -31,8 +37,10 @@ pub type FileFeature = [f32; 3];
 
 /// The file's magic bytes.
 pub const MAGIC: [u8; 8] = *b"CMAREFT\0";
-/// The format version this module reads and writes.
-pub const VERSION: u16 = 1;
+/// The format version this module writes (it reads [`VERSION`] and 1).
+pub const VERSION: u16 = 2;
+/// The active-ratio noise feature of a version-1 file (the ideal model's ½).
+pub const V1_NOISE_ACTIVE: FileFeature = [0.5; 3];
 /// Size of the fixed header in bytes.
 pub const HEADER_LEN: usize = 20;
 /// Largest Q a file may hold (a 1° grid; the core's `MAX_AZIMUTHS`).
@@ -81,8 +89,8 @@ pub enum TableFileError {
         /// Number of frequency rows.
         freqs: usize,
     },
-    /// Azimuths do not ascend within [0, 360), frequencies do not ascend, or a feature is negative
-    /// or not finite; the string says which.
+    /// Azimuths do not ascend within [0, 360), frequencies do not ascend, a magnitude feature is
+    /// negative, or a value is not finite; the string says which.
     BadContent(&'static str),
     /// A caller buffer has the wrong length; the string names it.
     BufferSize {
@@ -112,7 +120,7 @@ impl core::fmt::Display for TableFileError {
             ),
             Self::UnsupportedVersion { got } => write!(
                 f,
-                "reference-table file version {got} is not supported (this build reads version {VERSION})"
+                "reference-table file version {got} is not supported (this build reads versions 1 and {VERSION})"
             ),
             Self::UnsupportedFlags { got } => {
                 write!(f, "reference-table file has unknown flags {got:#06x}")
@@ -152,10 +160,21 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     !crc
 }
 
-/// Total file size in bytes for Q azimuths and F frequency rows.
+/// Total size in bytes of a file of the current [`VERSION`] for Q azimuths and F frequency rows.
 #[must_use]
 pub const fn encoded_len(azimuths: usize, freqs: usize) -> usize {
-    HEADER_LEN + 4 * azimuths + 4 * freqs + 12 * freqs * azimuths + 24 * freqs + 4
+    encoded_len_of(VERSION, azimuths, freqs)
+}
+
+/// Total size in bytes of a file of format `version` (1 or 2) for Q azimuths and F frequency rows.
+#[must_use]
+pub const fn encoded_len_of(version: u16, azimuths: usize, freqs: usize) -> usize {
+    let v1 = HEADER_LEN + 4 * azimuths + 4 * freqs + 12 * freqs * azimuths + 24 * freqs + 4;
+    if version >= 2 {
+        v1 + 12 * freqs * azimuths + 12 * freqs
+    } else {
+        v1
+    }
 }
 
 fn read_u16(b: &[u8], at: usize) -> u16 {
@@ -175,6 +194,7 @@ fn read_f32(b: &[u8], at: usize) -> f32 {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TableView<'a> {
     bytes: &'a [u8],
+    version: u16,
     azimuths: usize,
     freqs: usize,
     rate_hz: u32,
@@ -192,7 +212,7 @@ pub fn parse(bytes: &[u8]) -> Result<TableView<'_>, TableFileError> {
         return Err(TableFileError::BadMagic);
     }
     let version = read_u16(bytes, 8);
-    if version != VERSION {
+    if version != VERSION && version != 1 {
         return Err(TableFileError::UnsupportedVersion { got: version });
     }
     let flags = read_u16(bytes, 10);
@@ -201,7 +221,7 @@ pub fn parse(bytes: &[u8]) -> Result<TableView<'_>, TableFileError> {
     }
     let q = usize::from(read_u16(bytes, 12));
     let f = usize::from(read_u16(bytes, 14));
-    let expected = encoded_len(q, f);
+    let expected = encoded_len_of(version, q, f);
     if bytes.len() < expected {
         return Err(TableFileError::Truncated {
             expected,
@@ -227,6 +247,7 @@ pub fn parse(bytes: &[u8]) -> Result<TableView<'_>, TableFileError> {
     }
     let view = TableView {
         bytes,
+        version,
         azimuths: q,
         freqs: f,
         rate_hz: read_u32(bytes, 16),
@@ -247,6 +268,12 @@ impl TableView<'_> {
     }
     fn off_noise_power(&self) -> usize {
         self.off_noise_magnitude() + 12 * self.freqs
+    }
+    fn off_active(&self) -> usize {
+        self.off_noise_power() + 12 * self.freqs
+    }
+    fn off_noise_active(&self) -> usize {
+        self.off_active() + 12 * self.freqs * self.azimuths
     }
     fn feature_at(&self, at: usize) -> FileFeature {
         [
@@ -283,7 +310,26 @@ impl TableView<'_> {
                 "features must be finite and non-negative",
             ));
         }
+        let finite = |v: FileFeature| v.iter().all(|x| x.is_finite());
+        let active_ok = (0..self.freqs * self.azimuths).all(|i| finite(self.active_feature(i)))
+            && (0..self.freqs).all(|i| finite(self.noise_active(i)));
+        if !active_ok {
+            return Err(TableFileError::BadContent("active features must be finite"));
+        }
         Ok(())
+    }
+
+    /// Format version of the file (1 or 2).
+    #[must_use]
+    pub fn version(&self) -> u16 {
+        self.version
+    }
+
+    /// Whether the file holds measured active rows (version 2); a version-1 file stands in its
+    /// magnitude features and ½ for them.
+    #[must_use]
+    pub fn has_active(&self) -> bool {
+        self.version >= 2
     }
 
     /// Number of azimuths Q.
@@ -334,7 +380,58 @@ impl TableView<'_> {
         self.feature_at(self.off_noise_power() + 12 * i)
     }
 
-    /// Decodes the whole table into caller buffers of lengths Q, F, F·Q, F and F (checked).
+    /// Active feature entry `i = f·Q + q` (`i < F·Q`): Re(H_c/H_0); the magnitude feature in a
+    /// version-1 file.
+    #[must_use]
+    pub fn active_feature(&self, i: usize) -> FileFeature {
+        if self.has_active() {
+            self.feature_at(self.off_active() + 12 * i)
+        } else {
+            self.feature(i)
+        }
+    }
+
+    /// Omni-noise feature of the active ratios for row `i`; [`V1_NOISE_ACTIVE`] in a version-1 file.
+    #[must_use]
+    pub fn noise_active(&self, i: usize) -> FileFeature {
+        if self.has_active() {
+            self.feature_at(self.off_noise_active() + 12 * i)
+        } else {
+            V1_NOISE_ACTIVE
+        }
+    }
+
+    /// Decodes the active rows into caller buffers of lengths F·Q and F (checked); for a version-1
+    /// file, the magnitude features and ½.
+    pub fn decode_active_into(
+        &self,
+        active: &mut [FileFeature],
+        noise_active: &mut [FileFeature],
+    ) -> Result<(), TableFileError> {
+        let check = |what, expected: usize, got: usize| {
+            if expected == got {
+                Ok(())
+            } else {
+                Err(TableFileError::BufferSize {
+                    what,
+                    expected,
+                    got,
+                })
+            }
+        };
+        check("active", self.freqs * self.azimuths, active.len())?;
+        check("noise_active", self.freqs, noise_active.len())?;
+        for (i, v) in active.iter_mut().enumerate() {
+            *v = self.active_feature(i);
+        }
+        for (i, v) in noise_active.iter_mut().enumerate() {
+            *v = self.noise_active(i);
+        }
+        Ok(())
+    }
+
+    /// Decodes the magnitude part of the table into caller buffers of lengths Q, F, F·Q, F and F
+    /// (checked); the active rows: [`TableView::decode_active_into`].
     pub fn decode_into(
         &self,
         azimuths_deg: &mut [f32],
@@ -378,7 +475,8 @@ impl TableView<'_> {
     }
 }
 
-/// The parts of a table to write (the same layout as `ReferenceTable::new`).
+/// The parts of a table to write (the same layout as `ReferenceTable::new` and
+/// `ReferenceTable::with_active`).
 #[derive(Debug, Clone, Copy)]
 pub struct TableParts<'a> {
     /// Q azimuths, degrees, ascending in [0, 360).
@@ -391,6 +489,10 @@ pub struct TableParts<'a> {
     pub noise_magnitude: &'a [FileFeature],
     /// F omni-noise features for power mixing.
     pub noise_power: &'a [FileFeature],
+    /// F·Q active features Re(H_c/H_0), frequency-major.
+    pub active: &'a [FileFeature],
+    /// F omni-noise features of the active ratios.
+    pub noise_active: &'a [FileFeature],
     /// Rate of the calibration recordings, Hz (0 = unknown).
     pub rate_hz: u32,
 }
@@ -410,6 +512,8 @@ pub fn serialize(parts: &TableParts<'_>, out: &mut [u8]) -> Result<(), TableFile
         ("features", f * q, parts.features.len()),
         ("noise_magnitude", f, parts.noise_magnitude.len()),
         ("noise_power", f, parts.noise_power.len()),
+        ("active", f * q, parts.active.len()),
+        ("noise_active", f, parts.noise_active.len()),
         ("out", encoded_len(q, f), out.len()),
     ];
     for (what, expected, got) in shape {
@@ -441,6 +545,8 @@ pub fn serialize(parts: &TableParts<'_>, out: &mut [u8]) -> Result<(), TableFile
         .iter()
         .chain(parts.noise_magnitude)
         .chain(parts.noise_power)
+        .chain(parts.active)
+        .chain(parts.noise_active)
     {
         for x in v {
             put(&x.to_le_bytes());
@@ -469,6 +575,11 @@ mod tests {
         }
         let nm = [[0.5; 3], [0.4; 3]];
         let np = [[0.6; 3], [0.7; 3]];
+        let mut active = [[0.0f32; 3]; F * Q];
+        for (i, v) in active.iter_mut().enumerate() {
+            *v = [i as f32 * 0.1 - 0.2, 0.45, -1.0 / (i as f32 + 1.0)];
+        }
+        let na = [[0.52; 3], [0.48; 3]];
         let mut out = [0u8; LEN];
         serialize(
             &TableParts {
@@ -477,12 +588,62 @@ mod tests {
                 features: &feats,
                 noise_magnitude: &nm,
                 noise_power: &np,
+                active: &active,
+                noise_active: &na,
                 rate_hz: 48_000,
             },
             &mut out,
         )
         .unwrap();
         out
+    }
+
+    const LEN_V1: usize = encoded_len_of(1, Q, F);
+
+    /// The version-1 file of the same table: the active blocks cut, the version and CRC rewritten.
+    fn sample_v1() -> [u8; LEN_V1] {
+        let v2 = sample();
+        let mut out = [0u8; LEN_V1];
+        out[..LEN_V1 - 4].copy_from_slice(&v2[..LEN_V1 - 4]);
+        out[8..10].copy_from_slice(&1u16.to_le_bytes());
+        let crc = crc32(&out[..LEN_V1 - 4]);
+        out[LEN_V1 - 4..].copy_from_slice(&crc.to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn version_1_files_read_with_magnitudes_as_active_rows() {
+        assert_eq!(LEN - LEN_V1, 12 * F * Q + 12 * F);
+        let bytes = sample_v1();
+        let v = parse(&bytes).unwrap();
+        assert_eq!((v.version(), v.has_active()), (1, false));
+        let mut active = [[0.0; 3]; F * Q];
+        let mut na = [[0.0; 3]; F];
+        v.decode_active_into(&mut active, &mut na).unwrap();
+        for (i, a) in active.iter().enumerate() {
+            assert_eq!(*a, v.feature(i));
+        }
+        assert_eq!(na, [V1_NOISE_ACTIVE; F]);
+        // The same table as version 2 has its own active rows.
+        let v2 = sample();
+        let v = parse(&v2).unwrap();
+        assert_eq!((v.version(), v.has_active()), (2, true));
+        v.decode_active_into(&mut active, &mut na).unwrap();
+        assert_eq!(active[3], [3.0f32 * 0.1 - 0.2, 0.45, -0.25]);
+        assert_eq!(na, [[0.52; 3], [0.48; 3]]);
+        // A version-1 length with a version-2 header is truncated, and vice versa trailing.
+        let mut b = sample_v1();
+        b[8] = 2;
+        assert!(matches!(
+            parse(&b),
+            Err(TableFileError::Truncated { expected, got: LEN_V1 }) if expected == LEN
+        ));
+        let mut b = sample();
+        b[8] = 1;
+        assert!(matches!(
+            parse(&b),
+            Err(TableFileError::TrailingBytes { .. })
+        ));
     }
 
     #[test]
@@ -527,12 +688,16 @@ mod tests {
         let mut b = good;
         b[0] = b'X';
         assert_eq!(parse(&b), Err(TableFileError::BadMagic));
-        let mut b = good;
-        b[8] = 2;
-        assert_eq!(
-            parse(&b),
-            Err(TableFileError::UnsupportedVersion { got: 2 })
-        );
+        for version in [0u8, 3] {
+            let mut b = good;
+            b[8] = version;
+            assert_eq!(
+                parse(&b),
+                Err(TableFileError::UnsupportedVersion {
+                    got: version.into()
+                })
+            );
+        }
         let mut b = good;
         b[10] = 1;
         assert_eq!(parse(&b), Err(TableFileError::UnsupportedFlags { got: 1 }));
@@ -571,6 +736,8 @@ mod tests {
             features: &feats,
             noise_magnitude: &n,
             noise_power: &n,
+            active: &feats,
+            noise_active: &n,
             rate_hz: 0,
         };
         assert!(matches!(
@@ -588,5 +755,21 @@ mod tests {
             serialize(&parts, &mut out),
             Err(TableFileError::BadContent(_))
         ));
+        // Negative active features are valid, non-finite ones are not.
+        let parts = TableParts {
+            features: &feats,
+            active: &neg,
+            ..parts
+        };
+        assert!(serialize(&parts, &mut out).is_ok());
+        let inf = [[f32::INFINITY; 3]];
+        let parts = TableParts {
+            noise_active: &inf,
+            ..parts
+        };
+        assert_eq!(
+            serialize(&parts, &mut out),
+            Err(TableFileError::BadContent("active features must be finite"))
+        );
     }
 }

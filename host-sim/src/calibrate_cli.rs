@@ -5,8 +5,9 @@ use crate::calibrate::{self, CalibrationOptions, Measurement};
 use crate::error::{Result, SimError};
 use crate::sweep::SweepSpec;
 use crate::table_io::OwnedTable;
-use crate::wav_io::{read_four_channels, read_mono, write_wav, OutFormat};
+use crate::wav_io::{read_four_channels, read_mono, write_wav_with_comment, OutFormat};
 use cma_core::CARDIOID_LOOK_DEG;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -64,15 +65,26 @@ pub struct CalibrateArgs {
     /// A recording: AZIMUTH=FILE.wav (4 channels, CMA1 order); repeat for every azimuth.
     #[arg(long = "rec", allow_hyphen_values = true)]
     pub recordings: Vec<String>,
-    /// A folder with `calibration.csv` (`file,azimuth_deg`, paths relative to the folder).
-    #[arg(long)]
+    /// The list of recordings: a manifest CSV with the columns `file,azimuth_deg` (one recording
+    /// per line, paths relative to the manifest), or a folder holding one named `calibration.csv`.
+    #[arg(long, visible_alias = "manifest")]
     pub dir: Option<PathBuf>,
-    /// The sweep as played (mono WAV); default: generated from --f1/--f2/--seconds/--rate.
+    /// The sweep as played (mono WAV). A sweep written by `host-sim sweep` carries its f1/f2
+    /// (in the WAV's comment); default: generated from --f1/--f2/--seconds/--rate.
     #[arg(long)]
     pub sweep: Option<PathBuf>,
-    /// Sweep parameters (--f1/--f2 also set the deconvolution's band with --sweep FILE).
-    #[command(flatten)]
-    pub params: SweepParams,
+    /// Start frequency of the sweep, Hz (default: from the sweep file, else 50).
+    #[arg(long)]
+    pub f1: Option<f64>,
+    /// Stop frequency of the sweep, Hz (default: from the sweep file, else 20000).
+    #[arg(long)]
+    pub f2: Option<f64>,
+    /// Duration of a generated sweep, s (without --sweep; default 5).
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Rate of a generated sweep, Hz (without --sweep; default 48000).
+    #[arg(long)]
+    pub rate: Option<u32>,
     /// Impulse-response window, ms (thesis: 512 samples at 44.1 kHz).
     #[arg(long, default_value_t = 512.0 / 44.1)]
     pub window_ms: f64,
@@ -111,7 +123,14 @@ pub fn cmd_sweep(a: &SweepArgs) -> Result<()> {
     }
     let g = 10f64.powf(a.peak_dbfs / 20.0);
     let s: Vec<f32> = spec.generate().iter().map(|v| (v * g) as f32).collect();
-    write_wav(&a.out, spec.rate, 1, &s, a.format)
+    write_wav_with_comment(
+        &a.out,
+        spec.rate,
+        1,
+        &s,
+        a.format,
+        Some(&spec.info_comment()),
+    )
 }
 
 /// Reads one 4-channel recording.
@@ -126,6 +145,94 @@ pub fn read_measurement(path: &Path, azimuth_deg: f64) -> Result<Measurement> {
             .map(|c| [c[0], c[1], c[2], c[3]])
             .collect(),
     })
+}
+
+/// Name of the manifest `--dir FOLDER` looks for.
+pub const MANIFEST_NAME: &str = "calibration.csv";
+
+/// What a manifest holds, for messages.
+const MANIFEST_COLUMNS: &str = "a CSV with the columns `file,azimuth_deg` (a header line naming them is optional; one recording per line: its path relative to the manifest and the source azimuth in degrees, counter-clockwise from cardioid 0°)";
+
+/// The manifest `--dir` names: the file itself, or `calibration.csv` inside a folder.
+fn manifest_path(dir: &Path) -> Result<PathBuf> {
+    if dir.is_dir() {
+        let path = dir.join(MANIFEST_NAME);
+        if !path.is_file() {
+            return Err(SimError::Usage(format!(
+                "--dir {}: looked for the manifest {}, which does not exist; a manifest is {MANIFEST_COLUMNS}. Name the manifest file itself with --dir FILE, or list the recordings with --rec AZIMUTH=FILE",
+                dir.display(),
+                path.display()
+            )));
+        }
+        Ok(path)
+    } else if dir.is_file() {
+        Ok(dir.to_path_buf())
+    } else {
+        Err(SimError::Usage(format!(
+            "--dir {}: no such file or folder; expected a manifest ({MANIFEST_COLUMNS}) or a folder holding one named {MANIFEST_NAME}",
+            dir.display()
+        )))
+    }
+}
+
+/// The (azimuth, file) entries of a manifest; paths relative to its folder.
+pub fn read_manifest(path: &Path) -> Result<Vec<(f64, PathBuf)>> {
+    let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, e))?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let mut list = Vec::new();
+    // Column positions of (file, azimuth): from a header line, else `file,azimuth_deg`.
+    let mut columns = (0usize, 1usize);
+    let mut first = true;
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let bad = |reason: String| SimError::BadCsv {
+            path: path.to_path_buf(),
+            line: i + 1,
+            reason,
+        };
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if std::mem::take(&mut first) && fields.iter().all(|f| f.parse::<f64>().is_err()) {
+            let find = |names: &[&str]| {
+                fields
+                    .iter()
+                    .position(|f| names.iter().any(|n| f.eq_ignore_ascii_case(n)))
+            };
+            columns = match (find(&["file", "path"]), find(&["azimuth_deg", "azimuth"])) {
+                (Some(f), Some(a)) => (f, a),
+                _ => {
+                    return Err(bad(format!(
+                        "header `{line}`: expected the columns `file,azimuth_deg` (in any order)"
+                    )))
+                }
+            };
+            continue;
+        }
+        let (Some(file), Some(az)) = (fields.get(columns.0), fields.get(columns.1)) else {
+            return Err(bad(format!(
+                "expected `file,azimuth_deg`, got `{line}` ({} field(s))",
+                fields.len()
+            )));
+        };
+        let az = az
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| bad(format!("azimuth `{az}` is not a number (degrees)")))?;
+        if file.is_empty() {
+            return Err(bad("the file name is empty".into()));
+        }
+        list.push((az, base.join(file)));
+    }
+    if list.is_empty() {
+        return Err(SimError::Usage(format!(
+            "{}: no recordings listed; a manifest is {MANIFEST_COLUMNS}",
+            path.display()
+        )));
+    }
+    Ok(list)
 }
 
 /// The (azimuth, file) list of `--rec` and `--dir`.
@@ -144,31 +251,91 @@ fn recording_list(a: &CalibrateArgs) -> Result<Vec<(f64, PathBuf)>> {
         list.push((az, PathBuf::from(file)));
     }
     if let Some(dir) = &a.dir {
-        let path = dir.join("calibration.csv");
-        let text = std::fs::read_to_string(&path).map_err(|e| SimError::io(&path, e))?;
-        for (i, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || (i == 0 && line.starts_with("file")) {
-                continue;
-            }
-            let bad = |reason: &str| SimError::BadCsv {
-                path: path.clone(),
-                line: i + 1,
-                reason: reason.into(),
-            };
-            let (file, az) = line
-                .split_once(',')
-                .ok_or_else(|| bad("expected `file,azimuth_deg`"))?;
-            let az = az
-                .trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| bad("azimuth is not a number"))?;
-            list.push((az, dir.join(file.trim())));
-        }
+        list.extend(read_manifest(&manifest_path(dir)?)?);
     }
     Ok(list)
+}
+
+/// The sweep to deconvolve with, its parameters, and notes for the user: from `--sweep FILE` (its
+/// f1/f2 from the file's comment unless `--f1/--f2` override them), or generated.
+pub fn resolve_sweep(a: &CalibrateArgs) -> Result<(Vec<f64>, SweepSpec, Vec<String>)> {
+    let defaults = SweepSpec::default();
+    let mut notes = Vec::new();
+    match &a.sweep {
+        Some(path) => {
+            let (rate, s) = read_mono(path)?;
+            let stored = crate::sweep::read_info_comment(path)?
+                .as_deref()
+                .and_then(SweepSpec::from_info_comment);
+            let (f1, f2) = match (a.f1, a.f2, stored) {
+                (Some(f1), Some(f2), _) => (f1, f2),
+                (f1, f2, Some(st)) => (f1.unwrap_or(st.f1), f2.unwrap_or(st.f2)),
+                (f1, f2, None) => {
+                    let (f1, f2) = (f1.unwrap_or(defaults.f1), f2.unwrap_or(defaults.f2));
+                    notes.push(format!(
+                        "{} does not say its f1/f2 (not written by `host-sim sweep`): assuming f1 = {f1} Hz, f2 = {f2} Hz; pass --f1/--f2 if the sweep was made differently",
+                        path.display()
+                    ));
+                    (f1, f2)
+                }
+            };
+            if let Some(st) = stored {
+                if st.rate != rate {
+                    notes.push(format!(
+                        "{} says it was made at {} Hz but is at {rate} Hz (resampled?)",
+                        path.display(),
+                        st.rate
+                    ));
+                }
+            }
+            let s: Vec<f64> = s.iter().map(|v| f64::from(*v)).collect();
+            let spec = SweepSpec {
+                f1,
+                f2,
+                rate,
+                seconds: s.len() as f64 / f64::from(rate),
+            };
+            Ok((s, spec, notes))
+        }
+        None => {
+            let spec = SweepSpec {
+                f1: a.f1.unwrap_or(defaults.f1),
+                f2: a.f2.unwrap_or(defaults.f2),
+                seconds: a.seconds.unwrap_or(defaults.seconds),
+                rate: a.rate.unwrap_or(defaults.rate),
+            };
+            spec.validate()?;
+            Ok((spec.generate(), spec, notes))
+        }
+    }
+}
+
+/// The warning for a `--symmetry` calibration whose capsules disagree on mirrored azimuths, if any.
+#[must_use]
+pub fn symmetry_warning(check: &calibrate::SymmetryCheck) -> Option<String> {
+    let Some(worst) = check.worst_db() else {
+        return Some(
+            "warning: --symmetry could not check that the capsules are matched: record 0° and pairs of azimuths φ and 120° − φ (e.g. 15° and 105°), where cardioids 0° and 120° see the same relative angle".into(),
+        );
+    };
+    if !check.disagrees() {
+        return None;
+    }
+    let mut parts = Vec::new();
+    if let Some(d) = check.gain_1_over_0_db {
+        parts.push(format!(
+            "cardioid 120° vs 0°: {d:+.2} dB over {} mirrored azimuth pair(s)",
+            check.pairs_0_1
+        ));
+    }
+    if let Some(d) = check.gain_2_over_1_db {
+        parts.push(format!("cardioid 240° vs 120° at 0°: {d:+.2} dB"));
+    }
+    Some(format!(
+        "warning: --symmetry assumes matched capsules, but they disagree by up to {worst:.2} dB (tolerance {:.1} dB) where they see the same relative angle ({}); the rotated thirds copy each capsule's error onto the others. Record the full circle instead",
+        calibrate::SYMMETRY_TOLERANCE_DB,
+        parts.join("; ")
+    ))
 }
 
 /// Runs `host-sim calibrate`.
@@ -181,23 +348,10 @@ pub fn cmd_calibrate(a: &CalibrateArgs) -> Result<()> {
             )));
         }
     }
-    let (sweep, spec) = match &a.sweep {
-        Some(path) => {
-            let (rate, s) = read_mono(path)?;
-            let s: Vec<f64> = s.iter().map(|v| f64::from(*v)).collect();
-            let spec = SweepSpec {
-                rate,
-                seconds: s.len() as f64 / f64::from(rate),
-                ..a.params.spec()
-            };
-            (s, spec)
-        }
-        None => {
-            let spec = a.params.spec();
-            spec.validate()?;
-            (spec.generate(), spec)
-        }
-    };
+    let (sweep, spec, notes) = resolve_sweep(a)?;
+    for n in notes {
+        eprintln!("note: {n}");
+    }
     let opts = CalibrationOptions {
         sweep: spec,
         window_s: a.window_ms / 1000.0,
@@ -213,7 +367,14 @@ pub fn cmd_calibrate(a: &CalibrateArgs) -> Result<()> {
         .iter()
         .map(|(az, p)| read_measurement(p, *az))
         .collect::<Result<Vec<_>>>()?;
-    let (table, infos) = calibrate::calibrate(&measurements, &sweep, &opts)?;
+    let calibrate::Calibration {
+        table,
+        infos,
+        symmetry,
+    } = calibrate::calibrate(&measurements, &sweep, &opts)?;
+    if let Some(w) = symmetry.as_ref().and_then(symmetry_warning) {
+        eprintln!("{w}");
+    }
     table.write(&a.out)?;
     let crest = infos
         .iter()
@@ -236,7 +397,9 @@ pub fn cmd_calibrate(a: &CalibrateArgs) -> Result<()> {
 }
 
 /// Draws a table: features vs azimuth per capsule at four frequency rows (near 300, 1000, 2000 and
-/// 3500 Hz), with the ideal cardioid model in grey. Written atomically.
+/// 3500 Hz): the magnitude features (solid, with the measured points), the active features (dashed),
+/// the ideal cardioid model (grey) and each capsule's look direction (dotted vertical line), every
+/// curve closed over the full circle; one legend above the panels, off the data. Written atomically.
 pub fn table_plot(path: &Path, t: &OwnedTable) -> Result<()> {
     crate::plots::ensure_font()?;
     let name = path
@@ -254,44 +417,104 @@ pub fn table_plot(path: &Path, t: &OwnedTable) -> Result<()> {
     }
 }
 
+/// The points of one capsule's curve over the table's azimuths, closed: the first azimuth repeated
+/// at +360°.
+fn closed_curve(azimuths: &[f32], values: impl Fn(usize) -> f32) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> = azimuths
+        .iter()
+        .enumerate()
+        .map(|(qi, a)| (f64::from(*a), f64::from(values(qi))))
+        .collect();
+    if let Some(&(a, v)) = pts.first() {
+        pts.push((a + 360.0, v));
+    }
+    pts
+}
+
 fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
     let err = |e: &dyn std::fmt::Debug| {
         SimError::Other(format!("{}: plotting failed: {e:?}", path.display()))
     };
     let table = t.as_table()?;
     let q = t.azimuths_deg.len();
-    let ymax = t.features.iter().flatten().fold(1.0f32, |m, v| m.max(*v)) as f64 * 1.05;
-    let root = BitMapBackend::new(path, (1100, 800)).into_drawing_area();
+    let all = t.features.iter().chain(&t.active).flatten();
+    let ymax = f64::from(all.clone().fold(1.0f32, |m, v| m.max(*v))) * 1.05;
+    let ymin = f64::from(all.fold(0.0f32, |m, v| m.min(*v))) * 1.05;
+    let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
         .titled(
-            "calibrated reference table: |H_c| / |H_0| vs azimuth (grey: ideal cardioid)",
+            "calibrated reference table: features vs source azimuth, per cardioid",
             ("sans-serif", 22),
         )
         .map_err(|e| err(&e))?;
+    let (legend, panels) = root.split_vertically(70);
     let colors = [
         RGBColor(200, 30, 30),
         RGBColor(30, 140, 30),
         RGBColor(30, 60, 200),
     ];
-    for (area, f_want) in root
+    let grey = RGBColor(160, 160, 160);
+    // The legend, above the panels: the capsules' colours, then the line styles.
+    let text = ("sans-serif", 16).into_font();
+    for (m, color) in colors.iter().enumerate() {
+        let x = 20 + 160 * m as i32;
+        legend
+            .draw(&PathElement::new(
+                [(x, 18), (x + 30, 18)],
+                color.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?;
+        legend
+            .draw(&Text::new(
+                format!("cardioid {:.0}°", CARDIOID_LOOK_DEG[m]),
+                (x + 38, 10),
+                text.clone(),
+            ))
+            .map_err(|e| err(&e))?;
+    }
+    let styles: [(&str, (i32, i32)); 4] = [
+        ("ideal cardioid ½ + ½·cos(φ − φ_c)", (520, 10)),
+        ("look direction φ_c", (900, 10)),
+        ("magnitude |H_c|/|H_0| (dots: measured azimuths)", (20, 40)),
+        ("active Re(H_c/H_0)", (520, 40)),
+    ];
+    for (k, (label, (x, y))) in styles.into_iter().enumerate() {
+        let (a, b) = ((x, y + 8), (x + 30, y + 8));
+        match k {
+            0 => legend.draw(&PathElement::new([a, b], grey.stroke_width(1))),
+            1 => legend.draw(&DashedPathElement::new(
+                [(x + 15, y), (x + 15, y + 16)],
+                2,
+                3,
+                BLACK.stroke_width(1),
+            )),
+            2 => legend.draw(&PathElement::new([a, b], BLACK.stroke_width(2))),
+            _ => legend.draw(&DashedPathElement::new([a, b], 6, 4, BLACK.stroke_width(1))),
+        }
+        .map_err(|e| err(&e))?;
+        legend
+            .draw(&Text::new(label, (x + 38, y), text.clone()))
+            .map_err(|e| err(&e))?;
+    }
+    for (area, f_want) in panels
         .split_evenly((2, 2))
         .iter()
         .zip([300.0, 1000.0, 2000.0, 3500.0])
     {
         let fi = table.freq_index(f_want);
-        let row = table.row(fi);
         let mut chart = ChartBuilder::on(area)
             .caption(format!("{:.0} Hz", t.freqs_hz[fi]), ("sans-serif", 18))
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(40)
-            .build_cartesian_2d(0.0..360.0, 0.0..ymax)
+            .build_cartesian_2d(0.0..360.0, ymin.min(0.0)..ymax)
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
             .x_desc("azimuth (°)")
             .y_desc("feature")
+            .x_labels(13)
             .draw()
             .map_err(|e| err(&e))?;
         for (m, color) in colors.iter().enumerate() {
@@ -302,30 +525,34 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
                         let a = f64::from(a);
                         (a, 0.5 + 0.5 * (a - look).to_radians().cos())
                     }),
-                    RGBColor(170, 170, 170).stroke_width(1),
+                    grey.stroke_width(1),
                 ))
                 .map_err(|e| err(&e))?;
-            let pts: Vec<(f64, f64)> = (0..q)
-                .map(|qi| (f64::from(t.azimuths_deg[qi]), f64::from(row[qi][m])))
-                .collect();
             chart
-                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                .map_err(|e| err(&e))?
-                .label(format!("cardioid {look:.0}°"))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+                .draw_series(DashedLineSeries::new(
+                    [(look, ymin.min(0.0)), (look, ymax)],
+                    2,
+                    4,
+                    color.stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?;
+            let base = fi * q;
+            let magnitude = closed_curve(&t.azimuths_deg, |qi| t.features[base + qi][m]);
+            let active = closed_curve(&t.azimuths_deg, |qi| t.active[base + qi][m]);
             chart
-                .draw_series(pts.iter().map(|p| Circle::new(*p, 2, color.filled())))
+                .draw_series(DashedLineSeries::new(active, 6, 4, color.stroke_width(1)))
+                .map_err(|e| err(&e))?;
+            chart
+                .draw_series(LineSeries::new(magnitude.clone(), color.stroke_width(2)))
+                .map_err(|e| err(&e))?;
+            chart
+                .draw_series(
+                    magnitude[..q]
+                        .iter()
+                        .map(|p| Circle::new(*p, 2, color.filled())),
+                )
                 .map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))
 }
@@ -333,6 +560,249 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wav_io::write_wav;
+
+    /// A 0.5 s, 16 kHz sweep up to 7 kHz made by `host-sim sweep`, its anechoic recordings at 0°,
+    /// 120° and 240° made by `host-sim scene`, and their manifest `cal/list.csv` (with a header in
+    /// the other column order).
+    fn sweep_and_recordings(d: &Path) -> (PathBuf, PathBuf) {
+        let sweep = d.join("sweep.wav");
+        crate::run([
+            "host-sim",
+            "sweep",
+            "--out",
+            &s(&sweep),
+            "--seconds",
+            "0.5",
+            "--rate",
+            "16000",
+            "--f2",
+            "7000",
+        ])
+        .unwrap();
+        let cal = d.join("cal");
+        std::fs::create_dir(&cal).unwrap();
+        let mut manifest = String::from("azimuth_deg,file\n");
+        for az in [0, 120, 240] {
+            let name = format!("az{az}.wav");
+            crate::run([
+                "host-sim",
+                "scene",
+                "--out",
+                &s(&cal.join(&name)),
+                "--source",
+                &s(&sweep),
+                "--rate",
+                "16000",
+                "--azimuth",
+                &az.to_string(),
+                "--lead-in",
+                "0.05",
+                "--snr",
+                "40",
+                "--format",
+                "float",
+            ])
+            .unwrap();
+            manifest.push_str(&format!("{az},{name}\n"));
+        }
+        let list = cal.join("list.csv");
+        std::fs::write(&list, manifest).unwrap();
+        (sweep, list)
+    }
+
+    /// `--dir` takes a manifest file or a folder; a folder without `calibration.csv` and a bad
+    /// manifest are explained. The sweep's f1/f2 come from its file: without them calibration would
+    /// assume 20 kHz, above the 8 kHz Nyquist frequency of the recordings, and refuse.
+    #[test]
+    fn manifest_files_and_sweep_parameters_from_the_sweep_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let (sweep, list) = sweep_and_recordings(d);
+        let text = crate::sweep::read_info_comment(&sweep).unwrap().unwrap();
+        assert_eq!(text, "cma-sweep f1=50 f2=7000 seconds=0.5 rate=16000");
+        let out = d.join("t.cmat");
+        let cal = list.parent().unwrap();
+        let e = err_of(&[
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--dir",
+            &s(cal),
+        ]);
+        assert!(
+            e.contains("calibration.csv")
+                && e.contains("does not exist")
+                && e.contains("file,azimuth_deg"),
+            "{e}"
+        );
+        let e = err_of(&[
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--dir",
+            &s(&d.join("nowhere")),
+        ]);
+        assert!(
+            e.contains("no such file or folder") && e.contains("file,azimuth_deg"),
+            "{e}"
+        );
+        let bad = d.join("bad.csv");
+        std::fs::write(&bad, "name,angle\naz0.wav,0\n").unwrap();
+        let e = err_of(&[
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--dir",
+            &s(&bad),
+        ]);
+        assert!(
+            e.contains("bad.csv:1:") && e.contains("`file,azimuth_deg`"),
+            "{e}"
+        );
+        std::fs::write(&bad, "file,azimuth_deg\naz0.wav,north\n").unwrap();
+        let e = err_of(&[
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--dir",
+            &s(&bad),
+        ]);
+        assert!(
+            e.contains("bad.csv:2:") && e.contains("`north` is not a number"),
+            "{e}"
+        );
+        assert!(!out.exists());
+
+        crate::run([
+            "host-sim",
+            "calibrate",
+            "--out",
+            &s(&out),
+            "--sweep",
+            &s(&sweep),
+            "--manifest",
+            &s(&list),
+            "--freq-hi",
+            "3000",
+        ])
+        .unwrap();
+        let t = OwnedTable::read(&out).unwrap();
+        assert_eq!(t.azimuths_deg, [0.0, 120.0, 240.0]);
+        // The folder form finds calibration.csv.
+        std::fs::copy(&list, cal.join(MANIFEST_NAME)).unwrap();
+        let out2 = d.join("t2.cmat");
+        crate::run([
+            "host-sim",
+            "calibrate",
+            "--out",
+            &s(&out2),
+            "--sweep",
+            &s(&sweep),
+            "--dir",
+            &s(cal),
+            "--freq-hi",
+            "3000",
+        ])
+        .unwrap();
+        assert_eq!(OwnedTable::read(&out2).unwrap(), t);
+        // --f2 overrides the file (and 20 kHz is refused for a 16 kHz recording).
+        let e = err_of(&[
+            "calibrate",
+            "--out",
+            &s(&out2),
+            "--sweep",
+            &s(&sweep),
+            "--dir",
+            &s(&list),
+            "--f2",
+            "20000",
+        ]);
+        assert!(e.contains("f2 = 20000"), "{e}");
+    }
+
+    /// A sweep from elsewhere (no comment) falls back to the defaults, and says so.
+    #[test]
+    fn a_foreign_sweep_file_gets_a_note() {
+        let dir = tempfile::tempdir().unwrap();
+        let sweep = dir.path().join("other.wav");
+        let x: Vec<f32> = SweepSpec {
+            f1: 50.0,
+            f2: 7000.0,
+            seconds: 0.2,
+            rate: 16_000,
+        }
+        .generate()
+        .iter()
+        .map(|v| *v as f32)
+        .collect();
+        write_wav(&sweep, 16_000, 1, &x, OutFormat::Float).unwrap();
+        let parse = |extra: &[&str]| {
+            use clap::Parser;
+            let mut v: Vec<String> = ["host-sim", "calibrate", "--out", "t.cmat", "--sweep"]
+                .map(String::from)
+                .to_vec();
+            v.push(s(&sweep));
+            v.extend(extra.iter().map(|x| x.to_string()));
+            match crate::Cli::try_parse_from(v).unwrap().command {
+                crate::Command::Calibrate(a) => a,
+                _ => unreachable!("a calibrate command"),
+            }
+        };
+        let (_, spec, notes) = resolve_sweep(&parse(&[])).unwrap();
+        assert_eq!((spec.f1, spec.f2, spec.rate), (50.0, 20_000.0, 16_000));
+        assert!(notes[0].contains("does not say its f1/f2"), "{notes:?}");
+        let (_, spec, notes) = resolve_sweep(&parse(&["--f1", "60", "--f2", "7000"])).unwrap();
+        assert_eq!((spec.f1, spec.f2), (60.0, 7000.0));
+        assert!(notes.is_empty());
+        assert!((spec.seconds - 0.2).abs() < 1e-9);
+    }
+
+    #[test]
+    fn symmetry_warning_says_by_how_much() {
+        let check = calibrate::SymmetryCheck {
+            gain_1_over_0_db: Some(-2.04),
+            pairs_0_1: 7,
+            gain_2_over_1_db: Some(0.3),
+        };
+        let w = symmetry_warning(&check).unwrap();
+        assert!(
+            w.contains("2.04 dB") && w.contains("7 mirrored") && w.contains("+0.30 dB"),
+            "{w}"
+        );
+        let matched = calibrate::SymmetryCheck {
+            gain_1_over_0_db: Some(0.1),
+            pairs_0_1: 7,
+            gain_2_over_1_db: None,
+        };
+        assert_eq!(symmetry_warning(&matched), None);
+        let none = calibrate::SymmetryCheck {
+            gain_1_over_0_db: None,
+            pairs_0_1: 0,
+            gain_2_over_1_db: None,
+        };
+        assert!(symmetry_warning(&none).unwrap().contains("could not check"));
+    }
+
+    /// The plot is written (legend, ideal curves, look directions, closed curves are drawn without
+    /// error, also with negative active features).
+    #[test]
+    fn table_plot_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.png");
+        let mut t = OwnedTable::from_table(&cma_core::ReferenceTable::ideal_15deg());
+        t.active[12][1] = -0.2;
+        table_plot(&path, &t).unwrap();
+        assert!(std::fs::metadata(&path).unwrap().len() > 10_000);
+    }
 
     fn s(p: &Path) -> String {
         p.display().to_string()

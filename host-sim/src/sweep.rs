@@ -87,6 +87,119 @@ impl SweepSpec {
     }
 }
 
+/// Prefix of the comment that stores a sweep's parameters in its WAV file.
+const INFO_PREFIX: &str = "cma-sweep";
+
+impl SweepSpec {
+    /// The text `host-sim sweep` stores in the WAV's `LIST`/`INFO` chunk as its `ICMT` (comment)
+    /// entry, e.g. `cma-sweep f1=50 f2=20000 seconds=5 rate=48000`; audio editors show it as the
+    /// file's comment. [`SweepSpec::from_info_comment`] reads it back.
+    #[must_use]
+    pub fn info_comment(&self) -> String {
+        format!(
+            "{INFO_PREFIX} f1={} f2={} seconds={} rate={}",
+            self.f1, self.f2, self.seconds, self.rate
+        )
+    }
+
+    /// Parses [`SweepSpec::info_comment`]; `None` for any other text.
+    #[must_use]
+    pub fn from_info_comment(text: &str) -> Option<Self> {
+        let mut words = text.split_whitespace();
+        if words.next() != Some(INFO_PREFIX) {
+            return None;
+        }
+        let (mut f1, mut f2, mut seconds, mut rate) = (None, None, None, None);
+        for w in words {
+            let (k, v) = w.split_once('=')?;
+            match k {
+                "f1" => f1 = v.parse::<f64>().ok(),
+                "f2" => f2 = v.parse::<f64>().ok(),
+                "seconds" => seconds = v.parse::<f64>().ok(),
+                "rate" => rate = v.parse::<u32>().ok(),
+                _ => {}
+            }
+        }
+        Some(Self {
+            f1: f1?,
+            f2: f2?,
+            seconds: seconds?,
+            rate: rate?,
+        })
+    }
+}
+
+/// Appends a `LIST`/`INFO` chunk with one `ICMT` (comment) entry to a complete RIFF/WAVE file and
+/// updates the RIFF size. Readers that do not know the chunk skip it (it follows the `data` chunk).
+pub fn append_info_comment(path: &std::path::Path, text: &str) -> Result<()> {
+    use std::io::{Seek, SeekFrom, Write};
+    let io = |e| SimError::io(path, e);
+    let mut value = text.as_bytes().to_vec();
+    value.push(0);
+    let icmt_len = value.len() as u32;
+    if value.len() % 2 == 1 {
+        value.push(0);
+    }
+    let mut chunk = Vec::with_capacity(value.len() + 20);
+    chunk.extend_from_slice(b"LIST");
+    chunk.extend_from_slice(&(4 + 8 + value.len() as u32).to_le_bytes());
+    chunk.extend_from_slice(b"INFO");
+    chunk.extend_from_slice(b"ICMT");
+    chunk.extend_from_slice(&icmt_len.to_le_bytes());
+    chunk.extend_from_slice(&value);
+    let mut f = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(path)
+        .map_err(io)?;
+    let len = f.seek(SeekFrom::End(0)).map_err(io)?;
+    if len % 2 == 1 {
+        // RIFF chunks start on even offsets.
+        f.write_all(&[0]).map_err(io)?;
+    }
+    f.write_all(&chunk).map_err(io)?;
+    let total = f.seek(SeekFrom::End(0)).map_err(io)?;
+    let riff = u32::try_from(total - 8)
+        .map_err(|_| SimError::Other(format!("{}: too large for RIFF", path.display())))?;
+    f.seek(SeekFrom::Start(4)).map_err(io)?;
+    f.write_all(&riff.to_le_bytes()).map_err(io)
+}
+
+/// The `ICMT` comment of a WAV file's `LIST`/`INFO` chunk, if it has one (a missing or malformed
+/// chunk structure gives `None`; reading the file at all is the error).
+pub fn read_info_comment(path: &std::path::Path) -> Result<Option<String>> {
+    let bytes = std::fs::read(path).map_err(|e| SimError::io(path, e))?;
+    Ok(info_comment_of(&bytes))
+}
+
+fn info_comment_of(b: &[u8]) -> Option<String> {
+    if b.len() < 12 || &b[0..4] != b"RIFF" || &b[8..12] != b"WAVE" {
+        return None;
+    }
+    let u32_at = |at: usize| -> Option<usize> {
+        Some(u32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?) as usize)
+    };
+    let mut at = 12;
+    while at + 8 <= b.len() {
+        let len = u32_at(at + 4)?;
+        let body = b.get(at + 8..(at + 8).checked_add(len)?)?;
+        if &b[at..at + 4] == b"LIST" && body.get(0..4) == Some(b"INFO") {
+            let mut i = 4;
+            while i + 8 <= body.len() {
+                let n = u32::from_le_bytes(body[i + 4..i + 8].try_into().ok()?) as usize;
+                let value = body.get(i + 8..(i + 8).checked_add(n)?)?;
+                if &body[i..i + 4] == b"ICMT" {
+                    let text = value.split(|c| *c == 0).next().unwrap_or(&[]);
+                    return Some(String::from_utf8_lossy(text).into_owned());
+                }
+                i += 8 + n + n % 2;
+            }
+        }
+        at += 8 + len + len % 2;
+    }
+    None
+}
+
 /// Deconvolves sweep responses with one excitation (eq. 2.44–2.46), regularised:
 /// Ĥ\[k\] = X\[k\]·S*\[k\] / (|S\[k\]|² + λ\[k\]) with λ = ε·max|S|², ε = 10⁻⁴ inside [f₁, f₂] and ε = 1 outside,
 /// so bins the sweep does not excite are suppressed rather than amplified (plain eq. 2.44 divides by
@@ -201,6 +314,56 @@ mod tests {
         assert!(s.validate().is_ok());
         assert!(SweepSpec { f2: 9000.0, ..s }.validate().is_err());
         assert!(SweepSpec { seconds: 0.0, ..s }.validate().is_err());
+    }
+
+    /// The sweep's parameters survive in its WAV file, which still reads as before.
+    #[test]
+    fn parameters_travel_in_the_wav_file() {
+        let spec = SweepSpec {
+            f1: 63.5,
+            f2: 7000.0,
+            seconds: 0.25,
+            rate: 16_000,
+        };
+        assert_eq!(
+            SweepSpec::from_info_comment(&spec.info_comment()),
+            Some(spec)
+        );
+        assert_eq!(SweepSpec::from_info_comment("recorded in the lab"), None);
+        assert_eq!(SweepSpec::from_info_comment("cma-sweep f1=50 f2=x"), None);
+        let dir = tempfile::tempdir().unwrap();
+        // An odd-length data chunk (8-bit mono, 3 samples) checks the pad byte.
+        for (name, samples, bits) in [("a.wav", 4000usize, 32u16), ("b.wav", 3, 8)] {
+            let path = dir.path().join(name);
+            let wav = hound::WavSpec {
+                channels: 1,
+                sample_rate: 16_000,
+                bits_per_sample: bits,
+                sample_format: if bits == 32 {
+                    hound::SampleFormat::Float
+                } else {
+                    hound::SampleFormat::Int
+                },
+            };
+            let mut w = hound::WavWriter::create(&path, wav).unwrap();
+            for i in 0..samples {
+                if bits == 32 {
+                    w.write_sample(i as f32 / 8000.0 - 0.25).unwrap();
+                } else {
+                    w.write_sample((i as i8) * 3).unwrap();
+                }
+            }
+            w.finalize().unwrap();
+            assert_eq!(read_info_comment(&path).unwrap(), None);
+            append_info_comment(&path, &spec.info_comment()).unwrap();
+            let text = read_info_comment(&path).unwrap().unwrap();
+            assert_eq!(SweepSpec::from_info_comment(&text), Some(spec));
+            let bytes = std::fs::read(&path).unwrap();
+            let riff = u32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
+            assert_eq!(riff + 8, bytes.len());
+            let (rate, x) = crate::wav_io::read_mono(&path).unwrap();
+            assert_eq!((rate, x.len()), (16_000, samples));
+        }
     }
 
     #[test]

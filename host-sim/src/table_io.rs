@@ -24,6 +24,10 @@ pub struct OwnedTable {
     pub noise_magnitude: Vec<Feature>,
     /// F omni-noise features for power mixing.
     pub noise_power: Vec<Feature>,
+    /// F·Q active features Re(H_c/H_0), frequency-major.
+    pub active: Vec<Feature>,
+    /// F omni-noise features of the active ratios.
+    pub noise_active: Vec<Feature>,
     /// Rate of the calibration recordings, Hz (0 = unknown).
     pub rate_hz: u32,
 }
@@ -39,11 +43,14 @@ impl OwnedTable {
             features: t.features().to_vec(),
             noise_magnitude: (0..f).map(|i| t.noise_magnitude(i)).collect(),
             noise_power: (0..f).map(|i| t.noise_power(i)).collect(),
+            active: t.active_features().to_vec(),
+            noise_active: (0..f).map(|i| t.noise_active(i)).collect(),
             rate_hz: 0,
         }
     }
 
-    /// The table as the core sees it (validated by [`ReferenceTable::new`]).
+    /// The table as the core sees it (validated by [`ReferenceTable::new`] and
+    /// [`ReferenceTable::with_active`]).
     pub fn as_table(&self) -> Result<ReferenceTable<'_>> {
         ReferenceTable::new(
             &self.azimuths_deg,
@@ -52,6 +59,7 @@ impl OwnedTable {
             &self.noise_magnitude,
             &self.noise_power,
         )
+        .and_then(|t| t.with_active(&self.active, &self.noise_active))
         .map_err(|source| SimError::Core {
             context: "reference table".into(),
             source,
@@ -69,6 +77,8 @@ impl OwnedTable {
                 features: &self.features,
                 noise_magnitude: &self.noise_magnitude,
                 noise_power: &self.noise_power,
+                active: &self.active,
+                noise_active: &self.noise_active,
                 rate_hz: self.rate_hz,
             },
             &mut out,
@@ -77,7 +87,8 @@ impl OwnedTable {
         Ok(out)
     }
 
-    /// Decodes a table file.
+    /// Decodes a table file (version 1 or 2; a version-1 file's active rows are its magnitude
+    /// features and ½, see [`cma_core::table_file`]).
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Self, table_file::TableFileError> {
         let v = table_file::parse(bytes)?;
         let (q, f) = (v.num_azimuths(), v.num_freqs());
@@ -87,6 +98,8 @@ impl OwnedTable {
             features: vec![[0.0; 3]; f * q],
             noise_magnitude: vec![[0.0; 3]; f],
             noise_power: vec![[0.0; 3]; f],
+            active: vec![[0.0; 3]; f * q],
+            noise_active: vec![[0.0; 3]; f],
             rate_hz: v.rate_hz(),
         };
         v.decode_into(
@@ -96,6 +109,7 @@ impl OwnedTable {
             &mut t.noise_magnitude,
             &mut t.noise_power,
         )?;
+        v.decode_active_into(&mut t.active, &mut t.noise_active)?;
         Ok(t)
     }
 
@@ -134,6 +148,37 @@ impl OwnedTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use cma_core::features::FeatureKind;
+
+    /// A version-1 file (written before the active rows existed) still reads: its active rows are
+    /// its magnitude features, its active noise row ½.
+    #[test]
+    fn version_1_files_still_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v1.cmat");
+        let mut t = OwnedTable::from_table(&ReferenceTable::ideal_15deg());
+        t.features[3][0] = 0.9;
+        t.noise_magnitude = vec![[0.47; 3]];
+        t.active = t.features.iter().map(|f| f.map(|v| v - 0.1)).collect();
+        t.noise_active = vec![[0.4; 3]];
+        // Cut the version-2 file down to version 1: drop the active blocks, rewrite version and CRC.
+        let v2 = t.to_bytes().unwrap();
+        let len = table_file::encoded_len_of(1, 24, 1);
+        let mut v1 = v2[..len].to_vec();
+        v1[8..10].copy_from_slice(&1u16.to_le_bytes());
+        let crc = table_file::crc32(&v1[..len - 4]);
+        v1[len - 4..].copy_from_slice(&crc.to_le_bytes());
+        std::fs::write(&path, &v1).unwrap();
+        let back = OwnedTable::read(&path).unwrap();
+        assert_eq!(back.features, t.features);
+        assert_eq!(back.active, t.features);
+        assert_eq!(back.noise_active, vec![[0.5; 3]]);
+        assert_eq!(back.noise_magnitude, vec![[0.47; 3]]);
+        // Written again, it is a version-2 file with the same meaning.
+        back.write(&path).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap()[8], 2);
+        assert_eq!(OwnedTable::read(&path).unwrap(), back);
+    }
 
     #[test]
     fn file_round_trip_and_errors() {
@@ -145,10 +190,15 @@ mod tests {
         t.features[30][1] = 0.123;
         t.noise_magnitude = vec![[0.5; 3], [0.45; 3]];
         t.noise_power = vec![[0.6; 3], [0.61; 3]];
+        t.active = t.features.iter().map(|f| f.map(|v| v - 0.2)).collect();
+        t.noise_active = vec![[0.48; 3], [0.52; 3]];
         t.write(&path).unwrap();
         let back = OwnedTable::read(&path).unwrap();
         assert_eq!(back, t);
-        assert_eq!(back.as_table().unwrap().row(1)[6][1], 0.123);
+        let table = back.as_table().unwrap();
+        assert_eq!(table.row(1)[6][1], 0.123);
+        assert_eq!(table.rows(FeatureKind::Active).row(1)[6][1], 0.123 - 0.2);
+        assert_eq!(table.rows(FeatureKind::Active).noise(1), [0.52; 3]);
 
         let mut bytes = std::fs::read(&path).unwrap();
         bytes[100] ^= 0x40;

@@ -659,6 +659,19 @@ pub fn write_wav(
     samples: &[f32],
     format: OutFormat,
 ) -> Result<()> {
+    write_wav_with_comment(path, rate, channels, samples, format, None)
+}
+
+/// [`write_wav`], with `comment` stored in a `LIST`/`INFO` chunk (`ICMT`) after the samples
+/// ([`crate::sweep::append_info_comment`]).
+pub fn write_wav_with_comment(
+    path: &Path,
+    rate: u32,
+    channels: u16,
+    samples: &[f32],
+    format: OutFormat,
+    comment: Option<&str>,
+) -> Result<()> {
     let (bits, sample_format) = match format {
         OutFormat::Pcm16 => (16, hound::SampleFormat::Int),
         OutFormat::Pcm24 => (24, hound::SampleFormat::Int),
@@ -688,7 +701,11 @@ pub fn write_wav(
                 }
             }
         }
-        w.finalize().map_err(wr)
+        w.finalize().map_err(wr)?;
+        match comment {
+            Some(text) => crate::sweep::append_info_comment(tmp, text),
+            None => Ok(()),
+        }
     })
 }
 
