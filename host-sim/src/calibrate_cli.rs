@@ -437,9 +437,6 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
     };
     let table = t.as_table()?;
     let q = t.azimuths_deg.len();
-    let all = t.features.iter().chain(&t.active).flatten();
-    let ymax = f64::from(all.clone().fold(1.0f32, |m, v| m.max(*v))) * 1.05;
-    let ymin = f64::from(all.fold(0.0f32, |m, v| m.min(*v))) * 1.05;
     let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root
@@ -503,12 +500,19 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
         .zip([300.0, 1000.0, 2000.0, 3500.0])
     {
         let fi = table.freq_index(f_want);
+        // The panel's range: its row's values and the ideal model's [0, 1].
+        let shown = t.features[fi * q..(fi + 1) * q]
+            .iter()
+            .chain(&t.active[fi * q..(fi + 1) * q])
+            .flatten();
+        let ymax = f64::from(shown.clone().fold(1.0f32, |m, v| m.max(*v))) + 0.05;
+        let ymin = f64::from(shown.fold(0.0f32, |m, v| m.min(*v))) - 0.05;
         let mut chart = ChartBuilder::on(area)
             .caption(format!("{:.0} Hz", t.freqs_hz[fi]), ("sans-serif", 18))
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(40)
-            .build_cartesian_2d(0.0..360.0, ymin.min(0.0)..ymax)
+            .build_cartesian_2d(0.0..360.0, ymin..ymax)
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
@@ -528,14 +532,22 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
                     grey.stroke_width(1),
                 ))
                 .map_err(|e| err(&e))?;
-            chart
-                .draw_series(DashedLineSeries::new(
-                    [(look, ymin.min(0.0)), (look, ymax)],
-                    2,
-                    4,
-                    color.stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?;
+            // 0° is also 360°: its line at both edges.
+            let edges = if look == 0.0 {
+                vec![0.0, 360.0]
+            } else {
+                vec![look]
+            };
+            for x in edges {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(x, ymin), (x, ymax)],
+                        2,
+                        4,
+                        color.stroke_width(1),
+                    ))
+                    .map_err(|e| err(&e))?;
+            }
             let base = fi * q;
             let magnitude = closed_curve(&t.azimuths_deg, |qi| t.features[base + qi][m]);
             let active = closed_curve(&t.azimuths_deg, |qi| t.active[base + qi][m]);
