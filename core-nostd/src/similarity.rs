@@ -83,6 +83,8 @@ pub const ROW_CACHE_LEN: usize = 128;
 pub struct RowCache {
     /// Row the entries belong to (`usize::MAX`: none).
     fi: usize,
+    /// The row's omni-noise feature Y_η, which the entries are relative to.
+    noise: Feature,
     /// Per azimuth: −2r₀, −2r₁, −2r₂, ‖r‖², −64/‖r‖² (see [`row_constants`]).
     #[cfg(not(target_arch = "x86_64"))]
     rows: [[f32; 5]; ROW_CACHE_LEN],
@@ -97,6 +99,7 @@ impl RowCache {
     pub const fn new() -> Self {
         Self {
             fi: usize::MAX,
+            noise: [0.0; 3],
             #[cfg(not(target_arch = "x86_64"))]
             rows: [[0.0; 5]; ROW_CACHE_LEN],
             #[cfg(target_arch = "x86_64")]
@@ -287,9 +290,7 @@ impl CurveBuilder {
             self.accumulate(table, fi, y, weight, curve);
             return;
         };
-        let rows = table.rows(self.features);
-        self.fill_cache(cache, &rows, fi);
-        let noise_mag = rows.noise(fi);
+        let noise_mag = self.fill_cache(cache, table, fi);
         self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q], None);
     }
 
@@ -330,11 +331,9 @@ impl CurveBuilder {
             return;
         };
         let curve = &mut curve[..q];
-        let rows = table.rows(self.features);
         let mut rest = peaks;
         while let Some(p) = rest.first() {
-            self.fill_cache(cache, &rows, p.fi);
-            let noise_mag = rows.noise(p.fi);
+            let noise_mag = self.fill_cache(cache, table, p.fi);
             let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
             let ds = distance.as_mut().map(DistanceSum::reborrow);
             if run == 2 {
@@ -397,11 +396,21 @@ impl CurveBuilder {
         ok.then_some(q)
     }
 
-    /// Makes `cache` hold row `fi` of `rows` (the rows of this builder's feature kind).
-    fn fill_cache(&self, cache: &mut RowCache, rows: &FeatureRows<'_>, fi: usize) {
+    /// Makes `cache` hold row `fi` of the table's rows for this builder's feature kind; returns the
+    /// row's omni-noise feature Y_η.
+    #[inline(always)]
+    fn fill_cache(&self, cache: &mut RowCache, table: &ReferenceTable<'_>, fi: usize) -> Feature {
         if cache.fi == fi {
-            return;
+            return cache.noise;
         }
+        self.refill_cache(cache, &table.rows(self.features), fi)
+    }
+
+    /// [`CurveBuilder::fill_cache`] when the cache holds another row (with the ideal tables, which
+    /// have one row, only once), out of line so that the per-peak loop keeps its registers (a
+    /// [`FeatureRows`] live across it cost the Cortex-M4F ≈ 360 instructions per hop).
+    #[inline(never)]
+    fn refill_cache(&self, cache: &mut RowCache, rows: &FeatureRows<'_>, fi: usize) -> Feature {
         let noise_mag = rows.noise(fi);
         let entries = rows
             .row(fi)
@@ -419,6 +428,8 @@ impl CurveBuilder {
             }
         }
         cache.fi = fi;
+        cache.noise = noise_mag;
+        noise_mag
     }
 
     /// The inner loop of the cached path for G peaks of the row in `cache` (Y_η = `noise_mag`): per
