@@ -148,10 +148,29 @@ fn main() {
     }
 
     println!("cargo::rustc-check-cfg=cfg(cma_measured_table)");
+    println!("cargo::rustc-check-cfg=cfg(cma_table_magnitude)");
+    println!("cargo::rustc-check-cfg=cfg(cma_table_active)");
     println!("cargo:rerun-if-env-changed=CMA_TABLE");
+    println!("cargo:rerun-if-env-changed=CMA_TABLE_FEATURES");
     if let Some(table) = std::env::var_os("CMA_TABLE").filter(|v| !v.is_empty()) {
-        measured_table(&mut out, std::path::Path::new(&table));
+        // Which feature kinds' rows to embed: both (default), or one to halve the flash.
+        let kinds = std::env::var("CMA_TABLE_FEATURES").unwrap_or_default();
+        let (magnitude, active) = match kinds.as_str() {
+            "" | "both" => (true, true),
+            "magnitude" => (true, false),
+            "active" => (false, true),
+            other => panic!(
+                "CMA_TABLE_FEATURES={other}: expected `both` (the default), `magnitude` or `active`"
+            ),
+        };
+        measured_table(&mut out, std::path::Path::new(&table), magnitude, active);
         println!("cargo:rustc-cfg=cma_measured_table");
+        if magnitude {
+            println!("cargo:rustc-cfg=cma_table_magnitude");
+        }
+        if active {
+            println!("cargo:rustc-cfg=cma_table_active");
+        }
     }
 
     let path = std::path::Path::new(&std::env::var("OUT_DIR").unwrap()).join("tables.rs");
@@ -209,8 +228,8 @@ fn fft_tables(out: &mut String) {
 
 /// Emits the `MEASURED_*` statics of the reference-table file named by `CMA_TABLE` (version 1 or 2;
 /// for version 1 the active rows are its magnitude features and ½); a bad file fails the build with
-/// the parser's message.
-fn measured_table(out: &mut String, path: &std::path::Path) {
+/// the parser's message. `magnitude`/`active`: which feature kinds' rows to emit.
+fn measured_table(out: &mut String, path: &std::path::Path, magnitude: bool, active: bool) {
     let path = if path.is_absolute() {
         path.to_path_buf()
     } else {
@@ -246,12 +265,29 @@ fn measured_table(out: &mut String, path: &std::path::Path) {
         }
         writeln!(out, "];").unwrap();
     };
-    feature_array(
-        &format!("/// Magnitude features of the measured table `{src}`, frequency-major."),
-        "MEASURED_FEATURES",
-        f * q,
-        &|i| v.feature(i),
-    );
+    if magnitude {
+        feature_array(
+            &format!("/// Magnitude features of the measured table `{src}`, frequency-major."),
+            "MEASURED_FEATURES",
+            f * q,
+            &|i| v.feature(i),
+        );
+        feature_array(
+            "/// Omni-noise features (magnitude mixing) of the measured table.",
+            "MEASURED_NOISE_MAGNITUDE",
+            f,
+            &|i| v.noise_magnitude(i),
+        );
+        feature_array(
+            "/// Omni-noise features (power mixing) of the measured table.",
+            "MEASURED_NOISE_POWER",
+            f,
+            &|i| v.noise_power(i),
+        );
+    }
+    if !active {
+        return;
+    }
     let origin = if v.has_active() {
         "measured"
     } else {
@@ -268,17 +304,5 @@ fn measured_table(out: &mut String, path: &std::path::Path) {
         "MEASURED_NOISE_ACTIVE",
         f,
         &|i| v.noise_active(i),
-    );
-    feature_array(
-        "/// Omni-noise features (magnitude mixing) of the measured table.",
-        "MEASURED_NOISE_MAGNITUDE",
-        f,
-        &|i| v.noise_magnitude(i),
-    );
-    feature_array(
-        "/// Omni-noise features (power mixing) of the measured table.",
-        "MEASURED_NOISE_POWER",
-        f,
-        &|i| v.noise_power(i),
     );
 }

@@ -269,6 +269,11 @@ impl<'t> Locator<'t> {
         if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
             return Err(Error::InvalidConfig("thresholds must be ≥ 0"));
         }
+        if !table.serves(c.features) {
+            return Err(Error::InvalidConfig(
+                "the reference table has no rows for this feature kind (CMA_TABLE_FEATURES)",
+            ));
+        }
         if c.features == FeatureKind::Active && c.noise_mixing == NoiseMixing::Power {
             return Err(Error::InvalidConfig(
                 "active features mix noise linearly: use magnitude (or no) noise mixing",
@@ -794,6 +799,17 @@ mod tests {
     fn invalid_settings_are_errors_not_panics() {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
+        // A table of one feature kind serves only configurations of that kind.
+        let magnitude_only = table.only(FeatureKind::Magnitude);
+        assert!(matches!(
+            Locator::new(LocatorConfig::default(), magnitude_only, 48_000),
+            Err(Error::InvalidConfig(_))
+        ));
+        let magnitude = LocatorConfig {
+            features: FeatureKind::Magnitude,
+            ..LocatorConfig::default()
+        };
+        assert!(Locator::new(magnitude, magnitude_only, 48_000).is_ok());
         assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
         let mut bad = [LocatorConfig::default(); 9];
         bad[0].band_hi_hz = 100.0;

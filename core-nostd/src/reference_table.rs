@@ -45,6 +45,55 @@ pub struct ReferenceTable<'a> {
     active: &'a [Feature],
     /// Active-ratio omni-noise rows: F rows, or one row valid for every frequency.
     noise_active: &'a [Feature],
+    /// The feature kinds the table has rows for ([`KIND_MAGNITUDE`] | [`KIND_ACTIVE`]).
+    kinds: u8,
+}
+
+/// [`ReferenceTable`] serves [`FeatureKind::Magnitude`].
+const KIND_MAGNITUDE: u8 = 1;
+/// [`ReferenceTable`] serves [`FeatureKind::Active`].
+const KIND_ACTIVE: u8 = 2;
+
+const fn kind_bit(kind: FeatureKind) -> u8 {
+    match kind {
+        FeatureKind::Magnitude => KIND_MAGNITUDE,
+        FeatureKind::Active => KIND_ACTIVE,
+    }
+}
+
+/// Checks the axes of a table: Q in 3..=[`MAX_AZIMUTHS`] strictly ascending azimuths within
+/// [0, 360) and F ≥ 1 ascending frequencies; returns (Q, F).
+fn check_axes(azimuths_deg: &[f32], freqs_hz: &[f32]) -> Result<(usize, usize), Error> {
+    let q = azimuths_deg.len();
+    let f = freqs_hz.len();
+    if !(3..=MAX_AZIMUTHS).contains(&q) {
+        return Err(Error::InvalidConfig(
+            "reference table needs 3..=360 azimuths",
+        ));
+    }
+    if f == 0 {
+        return Err(Error::InvalidConfig(
+            "reference table needs at least one frequency",
+        ));
+    }
+    let ascending = azimuths_deg.windows(2).all(|w| w[0] < w[1]);
+    let in_range = azimuths_deg.iter().all(|a| (0.0..360.0).contains(a));
+    if !ascending || !in_range {
+        return Err(Error::InvalidConfig("azimuths must ascend within [0, 360)"));
+    }
+    if !freqs_hz.windows(2).all(|w| w[0] < w[1]) {
+        return Err(Error::InvalidConfig("frequencies must ascend"));
+    }
+    Ok((q, f))
+}
+
+/// Checks the length of one part of a table.
+fn check_len(expected: usize, got: usize) -> Result<(), Error> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(Error::TableShape { expected, got })
+    }
 }
 
 /// The rows of a [`ReferenceTable`] that one [`FeatureKind`] compares with: its features and the
@@ -96,44 +145,10 @@ impl<'a> ReferenceTable<'a> {
         noise_magnitude: &'a [Feature],
         noise_power: &'a [Feature],
     ) -> Result<Self, Error> {
-        let q = azimuths_deg.len();
-        let f = freqs_hz.len();
-        if !(3..=MAX_AZIMUTHS).contains(&q) {
-            return Err(Error::InvalidConfig(
-                "reference table needs 3..=360 azimuths",
-            ));
-        }
-        if f == 0 {
-            return Err(Error::InvalidConfig(
-                "reference table needs at least one frequency",
-            ));
-        }
-        if features.len() != f * q {
-            return Err(Error::TableShape {
-                expected: f * q,
-                got: features.len(),
-            });
-        }
-        if noise_magnitude.len() != f {
-            return Err(Error::TableShape {
-                expected: f,
-                got: noise_magnitude.len(),
-            });
-        }
-        if noise_power.len() != f {
-            return Err(Error::TableShape {
-                expected: f,
-                got: noise_power.len(),
-            });
-        }
-        let ascending = azimuths_deg.windows(2).all(|w| w[0] < w[1]);
-        let in_range = azimuths_deg.iter().all(|a| (0.0..360.0).contains(a));
-        if !ascending || !in_range {
-            return Err(Error::InvalidConfig("azimuths must ascend within [0, 360)"));
-        }
-        if !freqs_hz.windows(2).all(|w| w[0] < w[1]) {
-            return Err(Error::InvalidConfig("frequencies must ascend"));
-        }
+        let (q, f) = check_axes(azimuths_deg, freqs_hz)?;
+        check_len(f * q, features.len())?;
+        check_len(f, noise_magnitude.len())?;
+        check_len(f, noise_power.len())?;
         let finite = |v: &Feature| v.iter().all(|x| x.is_finite() && *x >= 0.0);
         if !features.iter().all(finite)
             || !noise_magnitude.iter().all(finite)
@@ -151,7 +166,55 @@ impl<'a> ReferenceTable<'a> {
             noise_power,
             active: features,
             noise_active: &HALF_NOISE,
+            kinds: KIND_MAGNITUDE | KIND_ACTIVE,
         })
+    }
+
+    /// A table with active rows only (`active`: F·Q features Re(H_c/H_0), frequency-major;
+    /// `noise_active`: F omni-noise features of the active ratios), for a build that embeds only
+    /// what an active-feature configuration compares with (half the flash of both kinds). It does
+    /// not serve [`FeatureKind::Magnitude`]: [`ReferenceTable::serves`] says so and the locator
+    /// refuses that configuration (the magnitude accessors return the active rows).
+    pub fn active_only(
+        azimuths_deg: &'a [f32],
+        freqs_hz: &'a [f32],
+        active: &'a [Feature],
+        noise_active: &'a [Feature],
+    ) -> Result<Self, Error> {
+        let (q, f) = check_axes(azimuths_deg, freqs_hz)?;
+        check_len(f * q, active.len())?;
+        check_len(f, noise_active.len())?;
+        let finite = |v: &Feature| v.iter().all(|x| x.is_finite());
+        if !active.iter().all(finite) || !noise_active.iter().all(finite) {
+            return Err(Error::InvalidConfig("active features must be finite"));
+        }
+        Ok(Self {
+            azimuths_deg,
+            freqs_hz,
+            features: active,
+            noise_magnitude: noise_active,
+            noise_power: noise_active,
+            active,
+            noise_active,
+            kinds: KIND_ACTIVE,
+        })
+    }
+
+    /// The same table, serving only feature kind `kind` (for a build that embeds only the rows one
+    /// configuration compares with); the locator refuses a configuration with the other kind.
+    #[must_use]
+    pub fn only(self, kind: FeatureKind) -> Self {
+        Self {
+            kinds: self.kinds & kind_bit(kind),
+            ..self
+        }
+    }
+
+    /// Whether the table has rows for feature kind `kind` (measured, or for a table without measured
+    /// active rows the magnitude stand-ins of [`ReferenceTable::new`]).
+    #[must_use]
+    pub fn serves(&self, kind: FeatureKind) -> bool {
+        self.kinds & kind_bit(kind) != 0
     }
 
     /// The same table with measured active rows: `active` holds F·Q features Re(H_c/H_0),
@@ -198,6 +261,7 @@ impl<'a> ReferenceTable<'a> {
             noise_power: &IDEAL_NOISE_POWER,
             active: &IDEAL_FEATURES_5DEG,
             noise_active: &HALF_NOISE,
+            kinds: KIND_MAGNITUDE | KIND_ACTIVE,
         }
     }
 
@@ -212,6 +276,7 @@ impl<'a> ReferenceTable<'a> {
             noise_power: &IDEAL_NOISE_POWER,
             active: &IDEAL_FEATURES_15DEG,
             noise_active: &HALF_NOISE,
+            kinds: KIND_MAGNITUDE | KIND_ACTIVE,
         }
     }
 
@@ -375,6 +440,30 @@ mod tests {
         let mut nan = active;
         nan[2][0] = f32::NAN;
         assert!(t.with_active(&nan, &na).is_err());
+    }
+
+    #[test]
+    fn tables_of_one_feature_kind() {
+        let az = [0.0, 120.0, 240.0];
+        let fr = [100.0, 200.0];
+        let active = [[-0.1, 0.5, 1.0]; 6];
+        let na = [[0.45; 3], [0.5; 3]];
+        let t = ReferenceTable::active_only(&az, &fr, &active, &na).unwrap();
+        assert!(t.serves(FeatureKind::Active) && !t.serves(FeatureKind::Magnitude));
+        assert_eq!(t.rows(FeatureKind::Active).noise(0), [0.45; 3]);
+        assert_eq!(t.rows(FeatureKind::Active).row(1), &active[3..]);
+        assert_eq!(
+            ReferenceTable::active_only(&az, &fr, &active, &na[..1]),
+            Err(Error::TableShape {
+                expected: 2,
+                got: 1
+            })
+        );
+        let ideal = ReferenceTable::ideal_5deg();
+        assert!(ideal.serves(FeatureKind::Active) && ideal.serves(FeatureKind::Magnitude));
+        let m = ideal.only(FeatureKind::Magnitude);
+        assert!(m.serves(FeatureKind::Magnitude) && !m.serves(FeatureKind::Active));
+        assert!(!m.only(FeatureKind::Active).serves(FeatureKind::Magnitude));
     }
 
     #[test]
