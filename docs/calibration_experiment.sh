@@ -65,10 +65,12 @@ scenes() {
 }
 
 # evaluate ARRAY TABLE(ideal|NAME) FEATURES → $W/m_ARRAY_TABLE_FEATURES.txt: "set frames ACC5 ACC10 MAE bias"
+# The blind self-calibration (on by default; it corrects toward the ideal model and is off with a
+# measured table anyway) is off throughout, so every row measures the table alone.
 evaluate() {
   local array=$1 table=$2 features=$3
   local t=(); [ "$table" = ideal ] || t=(--table "$W/$table.cmat")
-  $HS eval "$W/eval_$array" --features "$features" "${t[@]}" |
+  $HS eval "$W/eval_$array" --features "$features" --selfcal off "${t[@]}" |
     awk 'NR > 1 && NF > 10 && $1 != "all" {print $1, $2, $4, $5, $8, $10}' \
     > "$W/m_${array}_${table}_${features}.txt"
 }

@@ -741,6 +741,24 @@ mod tests {
         assert!(e.contains("f2 = 20000"), "{e}");
     }
 
+    /// A measured `--table` switches the self-calibration off (it corrects toward the ideal model),
+    /// unless `--selfcal on` asks for it.
+    #[test]
+    fn a_measured_table_turns_the_self_calibration_off() {
+        use clap::Parser;
+        let config = |extra: &[&str]| {
+            let args = ["host-sim", "locate", "x.wav"].iter().chain(extra);
+            match crate::Cli::try_parse_from(args).unwrap().command {
+                crate::Command::Locate(a) => a.config.config().unwrap(),
+                _ => unreachable!("a locate command"),
+            }
+        };
+        assert!(config(&[]).capsule_calibration.enabled);
+        assert!(!config(&["--table", "t.cmat"]).capsule_calibration.enabled);
+        let on = config(&["--table", "t.cmat", "--selfcal", "on"]);
+        assert!(on.capsule_calibration.enabled);
+    }
+
     /// A sweep from elsewhere (no comment) falls back to the defaults, and says so.
     #[test]
     fn a_foreign_sweep_file_gets_a_note() {

@@ -239,7 +239,9 @@ fn make_scenes(root: &Path, array: Array) {
 }
 
 /// The locator configuration and reference table of a cell: the default configuration with
-/// `features`, and the table `reference` stands for.
+/// `features`, and the table `reference` stands for. Both table references switch the blind
+/// self-calibration off: it corrects the cardioids toward the ideal model, which a measured table
+/// must not get on top of its own correction, and the ideal-table cells measure the table alone.
 fn reference_setup(
     fx: &Fixture,
     array: Array,
@@ -248,6 +250,7 @@ fn reference_setup(
 ) -> (LocatorConfig, ReferenceTable<'_>) {
     let config = LocatorConfig {
         features,
+        capsule_calibration: cma_core::capsule_calibration::CapsuleCalibration::OFF,
         ..LocatorConfig::default()
     };
     let table = match reference {
