@@ -289,6 +289,11 @@ impl<'t> Locator<'t> {
                 "frame onset: history 1…8 frames, finite low < high, floor in [0, 1]",
             ));
         }
+        if c.capsule_calibration.enabled && !table.is_ideal_model() {
+            return Err(Error::InvalidConfig(
+                "self-calibration maps the capsules to the ideal model: switch it off with a measured table",
+            ));
+        }
         if c.capsule_calibration.enabled && !c.capsule_calibration.is_valid() {
             return Err(Error::InvalidConfig(
                 "self-calibration: finite background dB ≥ 0, memory ≥ 1 frame, prior ≥ 0, anisotropy > 0",
@@ -799,6 +804,21 @@ mod tests {
     fn invalid_settings_are_errors_not_panics() {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
+        // The self-calibration maps the capsules to the ideal model: not on top of a measured table.
+        let az = [0.0f32, 120.0, 240.0];
+        let fr = [500.0f32];
+        let feats = [[0.5; 3]; 3];
+        let noise = [[0.5; 3]; 1];
+        let measured = ReferenceTable::new(&az, &fr, &feats, &noise, &noise).unwrap();
+        assert!(!measured.is_ideal_model() && table.is_ideal_model());
+        assert!(ReferenceTable::ideal_15deg().is_ideal_model());
+        assert!(matches!(
+            Locator::new(LocatorConfig::default(), measured, 48_000),
+            Err(Error::InvalidConfig(_))
+        ));
+        let mut uncalibrated = LocatorConfig::default();
+        uncalibrated.capsule_calibration.enabled = false;
+        assert!(Locator::new(uncalibrated, measured, 48_000).is_ok());
         // A table of one feature kind serves only configurations of that kind.
         let magnitude_only = table.only(FeatureKind::Magnitude);
         assert!(matches!(

@@ -265,6 +265,14 @@ impl<'a> ReferenceTable<'a> {
         }
     }
 
+    /// Whether this is one of the built-in ideal-model tables ([`ReferenceTable::ideal_5deg`],
+    /// [`ReferenceTable::ideal_15deg`]) rather than a measured one.
+    #[must_use]
+    pub fn is_ideal_model(&self) -> bool {
+        core::ptr::eq(self.features.as_ptr(), IDEAL_FEATURES_5DEG.as_ptr())
+            || core::ptr::eq(self.features.as_ptr(), IDEAL_FEATURES_15DEG.as_ptr())
+    }
+
     /// The ideal-model table on the thesis's 15° grid.
     #[must_use]
     pub fn ideal_15deg() -> ReferenceTable<'static> {
