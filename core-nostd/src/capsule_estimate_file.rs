@@ -87,9 +87,9 @@ impl fmt::Display for ParseErrorKind<'_> {
             }
             ParseErrorKind::DuplicateBand { band } => write!(f, "band {band} is given twice"),
             ParseErrorKind::NotANumber { text } => write!(f, "`{text}` is not a finite number"),
-            ParseErrorKind::Implausible => f.write_str(
-                "not a plausible cardioid (need 0.3 < a, b < 0.75 and peaks ≥ 0)",
-            ),
+            ParseErrorKind::Implausible => {
+                f.write_str("not a plausible cardioid (need 0.3 < a, b < 0.75 and peaks ≥ 0)")
+            }
             ParseErrorKind::MissingBand { band } => write!(f, "band {band} is missing"),
         }
     }
@@ -112,10 +112,10 @@ pub fn parse(text: &str) -> Result<CapsuleEstimate, ParseError<'_>> {
     let err = |line: usize, kind| ParseError { line, kind };
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines().enumerate();
-    if !lines.next().is_some_and(|(_, l)| l.trim() == MAGIC) {
+    if lines.next().is_none_or(|(_, l)| l.trim() != MAGIC) {
         return Err(err(1, ParseErrorKind::NotASelfCalibrationFile));
     }
-    if !lines.next().is_some_and(|(_, l)| l.trim() == HEADER) {
+    if lines.next().is_none_or(|(_, l)| l.trim() != HEADER) {
         return Err(err(2, ParseErrorKind::BadHeader));
     }
     let mut est = CapsuleEstimate::IDEAL;
@@ -205,7 +205,9 @@ mod tests {
     #[test]
     fn every_error_names_line_and_reason() {
         assert!(error("hello\n").starts_with("line 1: not a self-calibration file"));
-        assert!(error("# cma self-calibration v1\nband\n").starts_with("line 2: expected the header"));
+        assert!(
+            error("# cma self-calibration v1\nband\n").starts_with("line 2: expected the header")
+        );
         let e = |from: &str, to: &str| error(&GOOD.replacen(from, to, 1));
         assert_eq!(e("0.4812", "NaN"), "line 3: `NaN` is not a finite number");
         assert_eq!(e("0.4812", "1e39"), "line 3: `1e39` is not a finite number");
@@ -214,7 +216,10 @@ mod tests {
             "line 3: not a plausible cardioid (need 0.3 < a, b < 0.75 and peaks ≥ 0)"
         );
         assert_eq!(e("5321.4", "-1"), e("0.4812", "7"));
-        assert_eq!(e("0.5391", "0.5391,9"), "line 3: expected 10 fields, got 11");
+        assert_eq!(
+            e("0.5391", "0.5391,9"),
+            "line 3: expected 10 fields, got 11"
+        );
         assert_eq!(e("3,2000", "4,2000"), "line 6: band `4` is not 0…3");
         assert_eq!(e("3,2000", "2,2000"), "line 7: band 2 is given twice");
         let missing: String = GOOD.lines().take(5).map(|l| l.to_owned() + "\n").collect();

@@ -207,6 +207,10 @@ impl CalibrationLine {
 /// Writes `line` as one calibration line (with `\r\n`) into `out` and returns its length.
 /// Out-of-range fields are clamped first ([`CalibrationLine::normalized`]), so every line written
 /// decodes.
+///
+/// Not inlined: sent every few seconds, so one small out-of-line copy (the firmware's flash) beats
+/// an unrolled one in the caller.
+#[inline(never)]
 pub fn encode_calibration(line: &CalibrationLine, out: &mut [u8; MAX_CAL_LINE]) -> usize {
     let l = line.normalized();
     let mut w = Writer {
@@ -405,10 +409,7 @@ mod tests {
     #[test]
     fn example_line() {
         assert_eq!(line(&sample()), with_crc(SAMPLE_PAYLOAD));
-        assert_eq!(
-            decode_calibration(&with_crc(SAMPLE_PAYLOAD)),
-            Ok(sample())
-        );
+        assert_eq!(decode_calibration(&with_crc(SAMPLE_PAYLOAD)), Ok(sample()));
     }
 
     #[test]
@@ -483,10 +484,7 @@ mod tests {
         assert_eq!(msg, "not a frame line (a `$CAL` self-calibration line)");
         let mut buf = [0u8; MAX_LINE];
         let n = encode(&Frame::default(), &mut buf);
-        assert_eq!(
-            decode_calibration(&buf[..n]),
-            Err(DecodeError::FrameLine)
-        );
+        assert_eq!(decode_calibration(&buf[..n]), Err(DecodeError::FrameLine));
         assert_eq!(decode_line(&buf[..n]), Ok(Line::Frame(Frame::default())));
         assert_eq!(
             decode_calibration(&with_crc("GPGGA,1")),
@@ -669,15 +667,13 @@ mod tests {
             prop::array::uniform4(band),
         )
             .prop_map(
-                |(seq, centre_sample, confidence_permille, held, dropped, bands)| {
-                    CalibrationLine {
-                        seq,
-                        centre_sample,
-                        confidence_permille,
-                        held,
-                        dropped,
-                        bands,
-                    }
+                |(seq, centre_sample, confidence_permille, held, dropped, bands)| CalibrationLine {
+                    seq,
+                    centre_sample,
+                    confidence_permille,
+                    held,
+                    dropped,
+                    bands,
                 },
             )
     }
