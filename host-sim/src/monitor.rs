@@ -101,11 +101,10 @@ impl Counters {
     /// `key=value` pairs on one line (the monitor's summary; stable for scripts).
     pub fn summary(&self, reopens: u64) -> String {
         format!(
-            "frames={} calibration_lines={} corrupt_lines={} lost_frames={} gap_events={} \
-             duplicates={} restarts={} garbage_bytes={} bytes={} board_overruns={} \
-             board_dropped={} reopens={}",
+            "frames={} corrupt_lines={} lost_frames={} gap_events={} duplicates={} restarts={} \
+             garbage_bytes={} bytes={} board_overruns={} board_dropped={} reopens={} \
+             calibration_lines={}",
             self.frames,
-            self.calibration_lines,
             self.corrupt_lines,
             self.lost_frames,
             self.gap_events,
@@ -115,7 +114,8 @@ impl Counters {
             self.bytes,
             self.board_overruns,
             self.board_dropped,
-            reopens
+            reopens,
+            self.calibration_lines
         )
     }
 }
@@ -943,7 +943,7 @@ mod tests {
         let c = d.counters();
         assert_eq!((c.frames, c.calibration_lines), (2, 2));
         assert_eq!((c.corrupt_lines, c.lost_frames, c.garbage_bytes), (0, 0, 0));
-        assert!(c.summary(0).contains(" calibration_lines=2 "));
+        assert!(c.summary(0).ends_with(" reopens=0 calibration_lines=2"));
         // `feed` passes frames only.
         let mut frames = Vec::new();
         Decoder::new().feed(&stream, |f| frames.push(f.seq));

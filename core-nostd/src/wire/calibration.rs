@@ -409,6 +409,9 @@ mod tests {
     #[test]
     fn example_line() {
         assert_eq!(line(&sample()), with_crc(SAMPLE_PAYLOAD));
+        // The example of docs/wire-format.md.
+        let doc = std::format!("${SAMPLE_PAYLOAD}*6BCE\r\n");
+        assert_eq!(line(&sample()), doc.as_bytes());
         assert_eq!(decode_calibration(&with_crc(SAMPLE_PAYLOAD)), Ok(sample()));
     }
 
