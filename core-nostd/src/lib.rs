@@ -40,6 +40,7 @@ pub mod beamformer;
 pub mod bformat;
 pub mod block_decimator;
 pub mod capsule_calibration;
+pub mod capsule_estimate_file;
 pub mod cartesian_filter;
 pub mod combination;
 pub mod config;

@@ -46,9 +46,23 @@
 //!
 //! On the receiving side [`LineAssembler`] cuts an arbitrary byte stream into candidate lines and
 //! [`decode`] checks and parses each one.
+//!
+//! A second line type, the *calibration line* (`$CAL,…`, its own version), carries the blind
+//! self-calibration's state; the board sends one at start and then every
+//! [`CALIBRATION_PERIOD_S`] seconds next to the frame lines. Its format is described in
+//! [`encode_calibration`]'s module (`wire/calibration.rs`) and in `docs/wire-format.md`;
+//! [`decode_line`] decodes either kind, and a [`LineAssembler`] of [`MAX_ANY_LINE`] bytes holds
+//! both. [`decode`] rejects a calibration line with [`DecodeError::CalibrationLine`].
 
 use crate::estimate::{Estimate, Flags};
 use core::fmt;
+
+mod calibration;
+pub use calibration::{
+    decode_calibration, decode_line, encode_calibration, part_to_wire, peaks_to_wire,
+    CalibrationBand, CalibrationLine, CalibrationSchedule, Line, BAND_FIELDS, CALIBRATION_FIELDS,
+    CALIBRATION_PERIOD_S, CALIBRATION_VERSION, MAX_ANY_LINE, MAX_CAL_LINE, PART_MAX, PART_SCALE,
+};
 
 /// Format version written by [`encode`] and the only one [`decode`] accepts.
 pub const VERSION: u32 = 1;
@@ -247,6 +261,9 @@ impl Writer<'_> {
         }
     }
 
+    // Not inlined: called once per field, it would otherwise be copied into every field of the
+    // calibration line's unrolled loops (≈ 4 KB of the firmware's flash).
+    #[inline(never)]
     fn unsigned(&mut self, mut v: u64) {
         let mut digits = [0u8; 20];
         let mut n = 0;
@@ -269,6 +286,16 @@ impl Writer<'_> {
             self.byte(b'-');
         }
         self.unsigned(u64::from(v.unsigned_abs()));
+    }
+
+    /// Ends the line: `*`, the CRC of everything after the `$` at the start, `\r\n`. Returns the
+    /// line's length.
+    fn finish(mut self) -> usize {
+        let crc = crc16(self.buf.get(1..self.len).unwrap_or(&[]));
+        self.byte(b'*');
+        self.hex(crc, 4);
+        self.bytes(b"\r\n");
+        self.len
     }
 
     fn hex(&mut self, v: u16, digits: u32) {
@@ -310,12 +337,7 @@ pub fn encode(frame: &Frame, out: &mut [u8; MAX_LINE]) -> usize {
     w.unsigned(u64::from(f.overruns));
     w.byte(b',');
     w.unsigned(u64::from(f.dropped));
-    let star = w.len;
-    let crc = crc16(w.buf.get(1..star).unwrap_or(&[]));
-    w.byte(b'*');
-    w.hex(crc, 4);
-    w.bytes(b"\r\n");
-    w.len
+    w.finish()
 }
 
 /// A field of the line, for error messages.
@@ -344,6 +366,27 @@ pub enum Field {
     Dropped,
     /// The 4 hex digits after `*`.
     Checksum,
+    /// `held` of a calibration line.
+    Held,
+    /// `n` (background peaks) of a calibration line's band.
+    Peaks {
+        /// Band, 0 = lowest.
+        band: u8,
+    },
+    /// `a` (omni part) of a calibration line's band and cardioid.
+    OmniPart {
+        /// Band, 0 = lowest.
+        band: u8,
+        /// Cardioid, 0 = the one looking at 0°.
+        cardioid: u8,
+    },
+    /// `b` (dipole part) of a calibration line's band and cardioid.
+    DipolePart {
+        /// Band, 0 = lowest.
+        band: u8,
+        /// Cardioid, 0 = the one looking at 0°.
+        cardioid: u8,
+    },
 }
 
 impl Field {
@@ -362,6 +405,25 @@ impl Field {
             Field::Overruns => "ovr",
             Field::Dropped => "drop",
             Field::Checksum => "crc",
+            Field::Held => "held",
+            Field::Peaks { .. } => "n",
+            Field::OmniPart { .. } => "a",
+            Field::DipolePart { .. } => "b",
+        }
+    }
+}
+
+impl fmt::Display for Field {
+    /// The name, with band and cardioid for the calibration line's per-band fields
+    /// (`` `a` of band 2, cardioid 1 ``).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "`{}`", self.name())?;
+        match *self {
+            Field::Peaks { band } => write!(f, " of band {band}"),
+            Field::OmniPart { band, cardioid } | Field::DipolePart { band, cardioid } => {
+                write!(f, " of band {band}, cardioid {cardioid}")
+            }
+            _ => Ok(()),
         }
     }
 }
@@ -379,8 +441,12 @@ pub enum DecodeError {
     },
     /// The line does not start with `$`.
     MissingStart,
-    /// The line does not start with `$CMA,`.
+    /// The line starts with neither `$CMA,` nor `$CAL,`.
     BadPrefix,
+    /// [`decode`] was given a calibration line (`$CAL,`, see [`decode_calibration`]).
+    CalibrationLine,
+    /// [`decode_calibration`] was given a frame line (`$CMA,`, see [`decode`]).
+    FrameLine,
     /// No `*` before the checksum.
     MissingChecksum,
     /// The checksum computed over the line differs from the one transmitted.
@@ -425,7 +491,13 @@ impl fmt::Display for DecodeError {
                 write!(f, "line too long: {got} bytes, at most {max}")
             }
             DecodeError::MissingStart => f.write_str("line does not start with `$`"),
-            DecodeError::BadPrefix => f.write_str("line does not start with `$CMA,`"),
+            DecodeError::BadPrefix => f.write_str(
+                "unknown line: starts with neither `$CMA,` (frame) nor `$CAL,` (calibration)",
+            ),
+            DecodeError::CalibrationLine => {
+                f.write_str("not a frame line (a `$CAL` self-calibration line)")
+            }
+            DecodeError::FrameLine => f.write_str("not a calibration line (a `$CMA` frame line)"),
             DecodeError::MissingChecksum => f.write_str("no `*` checksum"),
             DecodeError::Checksum { expected, got } => {
                 write!(
@@ -439,10 +511,8 @@ impl fmt::Display for DecodeError {
             DecodeError::UnsupportedVersion { expected, got } => {
                 write!(f, "unsupported version {got}, expected {expected}")
             }
-            DecodeError::BadNumber { field } => write!(f, "field `{}` is malformed", field.name()),
-            DecodeError::OutOfRange { field } => {
-                write!(f, "field `{}` is out of range", field.name())
-            }
+            DecodeError::BadNumber { field } => write!(f, "field {field} is malformed"),
+            DecodeError::OutOfRange { field } => write!(f, "field {field} is out of range"),
             DecodeError::TrailingBytes => f.write_str("bytes after the checksum"),
         }
     }
@@ -506,26 +576,43 @@ fn parse_hex(s: &[u8], n: usize, field: Field) -> Result<u16, DecodeError> {
     Ok(v)
 }
 
-/// Checks and parses one line, with or without its `\r\n` (a lone `\r` or `\n` is tolerated too).
+/// Tag of a frame line, between `$` and the first field.
+pub const FRAME_TAG: &[u8] = b"CMA,";
+/// Tag of a calibration line ([`decode_calibration`]).
+pub const CALIBRATION_TAG: &[u8] = b"CAL,";
+
+/// The checked part of a line: after `$`, `tag` and the checksum are verified, the payload
+/// `TAG,f1,…,fn` (without `$` and `*crc`). `other_tag` and `other` name the other line type.
 ///
-/// Checks in this order: length, `$`, `CMA,` tag, `*` and the 4 hex checksum digits, nothing after
-/// them, checksum, field count, version, then each field (canonical number, range).
-pub fn decode(line: &[u8]) -> Result<Frame, DecodeError> {
-    if line.len() > MAX_LINE {
+/// Checks in this order: `$`, tag, length (at most `max` bytes with the terminator), `*` and the 4
+/// hex checksum digits, nothing after them, checksum.
+fn checked_payload<'a>(
+    line: &'a [u8],
+    tag: &[u8],
+    max: usize,
+    other_tag: &[u8],
+    other: DecodeError,
+) -> Result<&'a [u8], DecodeError> {
+    let body = match line.split_first() {
+        Some((b'$', body)) => body,
+        _ => return Err(DecodeError::MissingStart),
+    };
+    if !body.starts_with(tag) {
+        return Err(if body.starts_with(other_tag) {
+            other
+        } else {
+            DecodeError::BadPrefix
+        });
+    }
+    if line.len() > max {
         return Err(DecodeError::TooLong {
-            max: MAX_LINE,
+            max,
             got: line.len(),
         });
     }
     let line = line.strip_suffix(b"\n").unwrap_or(line);
     let line = line.strip_suffix(b"\r").unwrap_or(line);
-    let body = match line.split_first() {
-        Some((b'$', body)) => body,
-        _ => return Err(DecodeError::MissingStart),
-    };
-    if !body.starts_with(b"CMA,") {
-        return Err(DecodeError::BadPrefix);
-    }
+    let body = line.get(1..).unwrap_or(&[]);
     let star = body
         .iter()
         .position(|&b| b == b'*')
@@ -541,8 +628,12 @@ pub fn decode(line: &[u8]) -> Result<Frame, DecodeError> {
     if expected != got {
         return Err(DecodeError::Checksum { expected, got });
     }
+    Ok(payload)
+}
 
-    let mut fields: [&[u8]; FIELDS] = [&[]; FIELDS];
+/// Splits the payload's fields after the tag into `fields`; returns how many there were (also when
+/// more than `fields` holds).
+fn split_fields<'a>(payload: &'a [u8], fields: &mut [&'a [u8]]) -> usize {
     let mut n = 0;
     for (i, f) in payload.split(|&b| b == b',').skip(1).enumerate() {
         if let Some(slot) = fields.get_mut(i) {
@@ -550,6 +641,26 @@ pub fn decode(line: &[u8]) -> Result<Frame, DecodeError> {
         }
         n += 1;
     }
+    n
+}
+
+/// Checks and parses one frame line, with or without its `\r\n` (a lone `\r` or `\n` is tolerated
+/// too).
+///
+/// Checks in this order: `$`, `CMA,` tag (a `$CAL,` calibration line gives
+/// [`DecodeError::CalibrationLine`]), length, `*` and the 4 hex checksum digits, nothing after
+/// them, checksum, field count, version, then each field (canonical number, range).
+pub fn decode(line: &[u8]) -> Result<Frame, DecodeError> {
+    let payload = checked_payload(
+        line,
+        FRAME_TAG,
+        MAX_LINE,
+        CALIBRATION_TAG,
+        DecodeError::CalibrationLine,
+    )?;
+
+    let mut fields: [&[u8]; FIELDS] = [&[]; FIELDS];
+    let n = split_fields(payload, &mut fields);
     if n != FIELDS {
         return Err(DecodeError::FieldCount {
             expected: FIELDS,

@@ -1,8 +1,13 @@
 //! Property tests of the wire format (run by `cargo test`, fixed seed so failures reproduce):
 //! arbitrary bytes never panic the decoder or the assembler, every frame round-trips, and single or
-//! double byte corruption of a valid line is never accepted as a different frame.
+//! double byte corruption of a valid line is never accepted as a different frame; the same for the
+//! calibration line.
 
-use cma_core::wire::{decode, encode, Frame, LineAssembler, MAX_LINE};
+use cma_core::wire::{
+    decode, decode_calibration, decode_line, encode, encode_calibration, CalibrationBand,
+    CalibrationLine, DecodeError, Frame, Line, LineAssembler, MAX_ANY_LINE, MAX_CAL_LINE, MAX_LINE,
+    PART_MAX,
+};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
@@ -145,5 +150,112 @@ proptest! {
             _ => { l[i] ^= v1 | 1; let j = p2.index(l.len()); l.remove(j); }
         }
         check_not_different(&f, &l)?;
+    }
+}
+
+// The calibration line (`$CAL`): the same properties, and the dispatching decoder agrees with the
+// single-kind ones.
+
+fn any_calibration() -> impl Strategy<Value = CalibrationLine> {
+    let band = (
+        any::<u32>(),
+        prop::array::uniform3(0..=PART_MAX),
+        prop::array::uniform3(0..=PART_MAX),
+    )
+        .prop_map(|(peaks, omni_part, dipole_part)| CalibrationBand {
+            peaks,
+            omni_part,
+            dipole_part,
+        });
+    (
+        any::<u32>(),
+        any::<u64>(),
+        0u16..=1000,
+        any::<bool>(),
+        any::<u32>(),
+        prop::array::uniform4(band),
+    )
+        .prop_map(|(seq, t, conf, held, drop, bands)| CalibrationLine {
+            seq,
+            centre_sample: t,
+            confidence_permille: conf,
+            held,
+            dropped: drop,
+            bands,
+        })
+}
+
+fn encoded_calibration(c: &CalibrationLine) -> Vec<u8> {
+    let mut buf = [0u8; MAX_CAL_LINE];
+    let n = encode_calibration(c, &mut buf);
+    buf[..n].to_vec()
+}
+
+/// A corrupted calibration line may be rejected, or accepted only as the very same line, never as
+/// another calibration line nor as a frame.
+fn check_calibration_not_different(
+    original: &CalibrationLine,
+    corrupted: &[u8],
+) -> Result<(), TestCaseError> {
+    if let Ok(got) = decode_line(corrupted) {
+        prop_assert_eq!(got, Line::Calibration(*original));
+    }
+    let mut asm = LineAssembler::<MAX_ANY_LINE>::new();
+    let mut result = Ok(());
+    asm.push_chunk(corrupted, |l| {
+        if let Ok(got) = decode_line(l) {
+            if got != Line::Calibration(*original) {
+                result = Err(TestCaseError::fail(
+                    "assembler line accepted as another line",
+                ));
+            }
+        }
+    });
+    result
+}
+
+proptest! {
+    #![proptest_config(config(10_000))]
+
+    #[test]
+    fn arbitrary_bytes_never_panic_any_decoder(
+        bytes in proptest::collection::vec(any::<u8>(), 0..400),
+    ) {
+        let _ = decode_calibration(&bytes);
+        let any = decode_line(&bytes);
+        if let Ok(c) = decode_calibration(&bytes) {
+            prop_assert_eq!(any, Ok(Line::Calibration(c)));
+        }
+        let mut asm = LineAssembler::<MAX_ANY_LINE>::new();
+        asm.push_chunk(&bytes, |l| { let _ = decode_line(l); });
+    }
+
+    #[test]
+    fn calibration_round_trip(c in any_calibration()) {
+        let l = encoded_calibration(&c);
+        prop_assert!(l.len() <= MAX_CAL_LINE);
+        prop_assert_eq!(decode_calibration(&l), Ok(c));
+        prop_assert_eq!(decode_line(&l), Ok(Line::Calibration(c)));
+        prop_assert_eq!(decode(&l), Err(DecodeError::CalibrationLine));
+    }
+
+    #[test]
+    fn calibration_byte_corruption_never_accepted_as_another_line(
+        c in any_calibration(),
+        p1 in any::<prop::sample::Index>(),
+        p2 in any::<prop::sample::Index>(),
+        v1 in any::<u8>(),
+        v2 in any::<u8>(),
+        mode in 0u8..4,
+    ) {
+        let mut l = encoded_calibration(&c);
+        let i = p1.index(l.len());
+        match mode {
+            0 => l[i] ^= v1 | 1,
+            1 => { l[i] ^= v1 | 1; let j = p2.index(l.len()); l[j] ^= v2 | 1; }
+            2 => { l.remove(i); let j = p2.index(l.len()); l.remove(j); }
+            _ => { l[i] ^= v1 | 1; let j = p2.index(l.len()); l.remove(j); }
+        }
+        check_calibration_not_different(&c, &l)?;
     }
 }

@@ -1,24 +1,48 @@
-//! The application: a DSP task (capture → core → estimates) and a UART task (estimates → frame lines).
+//! The application: a DSP task (capture → core → estimates) and a UART task (estimates → frame lines,
+//! self-calibration snapshots → calibration lines).
 //!
 //! ```text
-//! I2S2 + I2S3 ─DMA rings─▶ dsp_task ─ Locator ─▶ ESTIMATES (bounded) ─▶ uart_task ─DMA─▶ USART1
-//!                              │ overruns counted,                │ full: frame dropped, counted
-//!                              └ watchdog petted per block        └ one `$CMA,…` line per estimate
+//! I2S2 + I2S3 ─DMA rings─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─DMA─▶ USART1
+//!                              │ overruns counted,                │ full: line dropped, counted
+//!                              │ watchdog petted per block        │ one `$CMA,…` line per estimate,
+//!                              └ self-calibration snapshot at     └ one `$CAL,…` line per snapshot
+//!                                start and every 10 s
 //! ```
+//!
+//! The self-calibration starts from the estimate embedded at build time
+//! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it).
 
 use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
-use cma_core::wire;
+use cma_core::capsule_calibration::CapsuleEstimate;
+use cma_core::wire::{self, CalibrationLine, CalibrationSchedule};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
 use cma_firmware::stats::Counters;
+use cma_firmware::stored_capsules;
 use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
 
-/// Estimates waiting for the UART (≈ 85 ms of estimates at one per 21.3 ms).
+/// Lines waiting for the UART (≈ 85 ms of estimates at one per 21.3 ms; a calibration line, ≈ 15 ms
+/// on the wire every 10 s, fits in that slack).
 const QUEUE_LEN: usize = 4;
 
-static ESTIMATES: Channel<CriticalSectionRawMutex, Estimate, QUEUE_LEN> = Channel::new();
+/// What the DSP task hands to the UART task: raw values, formatted there.
+enum Outgoing {
+    /// One estimate → one frame line.
+    Estimate(Estimate),
+    /// A snapshot of the self-calibration → one calibration line.
+    Calibration {
+        /// The estimate ([`Locator::capsule_estimate`]).
+        capsules: CapsuleEstimate,
+        /// Its confidence ([`Locator::capsule_confidence`]).
+        confidence: f32,
+        /// `centre_sample` of the last estimate before the snapshot (0 at start).
+        centre_sample: u64,
+    },
+}
+
+static OUTGOING: Channel<CriticalSectionRawMutex, Outgoing, QUEUE_LEN> = Channel::new();
 static COUNTERS: Counters = Counters::new();
 /// The localizer (36 776 B, `llvm-nm -S` of the release image), built in place by
 /// `Locator::init_in_place` (no stack temporary).
@@ -46,7 +70,7 @@ pub async fn run(spawner: Spawner) {
 fn init_locator() -> &'static mut Locator<'static> {
     // Note(unwrap-like panic): the default configuration and the built-in table are valid at 48 kHz;
     // a failure here is a build defect and panics at boot.
-    match Locator::init_in_place(
+    let locator = match Locator::init_in_place(
         LOCATOR.uninit(),
         LocatorConfig::default(),
         ReferenceTable::ideal_5deg(),
@@ -54,6 +78,23 @@ fn init_locator() -> &'static mut Locator<'static> {
     ) {
         Ok(l) => l,
         Err(e) => defmt::panic!("localizer configuration rejected: {}", e),
+    };
+    locator.set_capsule_estimate(&stored_capsules::STORED);
+    if let Some(source) = stored_capsules::SOURCE {
+        defmt::info!("self-calibration starts from {}", source);
+    }
+    locator
+}
+
+/// Queues a snapshot of the self-calibration for a calibration line; a full queue drops it (counted).
+fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
+    let snapshot = Outgoing::Calibration {
+        capsules: *locator.capsule_estimate(),
+        confidence: locator.capsule_confidence(),
+        centre_sample,
+    };
+    if OUTGOING.try_send(snapshot).is_err() {
+        COUNTERS.count_calibration_dropped();
     }
 }
 
@@ -66,6 +107,11 @@ fn init_locator() -> &'static mut Locator<'static> {
 /// the following frames; the localizer keeps its state (its sample clock then runs behind the input by
 /// the samples lost). Estimates never wait for the UART: when the queue is full they are dropped and
 /// counted in the `drop` field.
+///
+/// Before the first block and then after the first estimate at least
+/// [`wire::CALIBRATION_PERIOD_S`] seconds after the previous one ([`CalibrationSchedule`]), the
+/// self-calibration's estimate is copied (≈ 0.1 KB, outside the localizer's per-hop work) and queued
+/// the same way; a full queue drops it and counts it in the calibration line's `drop` field.
 #[embassy_executor::task]
 async fn dsp_task(
     mut audio: AudioIn,
@@ -73,6 +119,10 @@ async fn dsp_task(
     mut watchdog: Watchdog,
 ) {
     let mut block = [[0.0f32; CHANNELS]; BLOCK_FRAMES];
+    let mut schedule = CalibrationSchedule::new(SAMPLE_RATE_HZ);
+    if schedule.due(0) {
+        send_calibration(locator, 0);
+    }
     watchdog.unleash();
     audio.start();
     loop {
@@ -82,31 +132,69 @@ async fn dsp_task(
             defmt::warn!("I2S overrun #{}: capture realigned", COUNTERS.overruns());
             continue;
         }
+        let mut calibration_due = None;
         locator.process_block(&block, |e| {
-            if ESTIMATES.try_send(*e).is_err() {
+            if OUTGOING.try_send(Outgoing::Estimate(*e)).is_err() {
                 COUNTERS.count_dropped();
             }
+            if schedule.due(e.centre_sample) {
+                calibration_due = Some(e.centre_sample);
+            }
         });
+        if let Some(centre_sample) = calibration_due {
+            send_calibration(locator, centre_sample);
+        }
     }
 }
 
-/// Encodes queued estimates as frame lines and writes them to the UART.
+// The UART task's one line buffer holds a line of either kind.
+const _: () =
+    assert!(wire::MAX_ANY_LINE >= wire::MAX_LINE && wire::MAX_ANY_LINE >= wire::MAX_CAL_LINE);
+
+/// Encodes queued estimates as frame lines and self-calibration snapshots as calibration lines, and
+/// writes them to the UART.
 #[embassy_executor::task]
 async fn uart_task(mut uart: FrameTx) {
-    let mut line = [0u8; wire::MAX_LINE];
-    // `seq` counts lines sent (docs/wire-format.md): frames dropped by backpressure show in `drop`.
+    let mut line = [0u8; wire::MAX_ANY_LINE];
+    // `seq` counts frame lines sent (docs/wire-format.md): frames dropped by backpressure show in
+    // `drop`. Calibration lines have their own `seq`.
     let mut seq: u32 = 0;
+    let mut calibration_seq: u32 = 0;
     loop {
-        let e = ESTIMATES.receive().await;
-        let frame = wire::Frame::from_estimate(
-            &e,
-            seq,
-            SAMPLE_RATE_HZ,
-            COUNTERS.overruns(),
-            COUNTERS.dropped(),
-        );
-        seq = seq.wrapping_add(1);
-        let n = wire::encode(&frame, &mut line);
+        let n = match OUTGOING.receive().await {
+            Outgoing::Estimate(e) => {
+                let frame = wire::Frame::from_estimate(
+                    &e,
+                    seq,
+                    SAMPLE_RATE_HZ,
+                    COUNTERS.overruns(),
+                    COUNTERS.dropped(),
+                );
+                seq = seq.wrapping_add(1);
+                match line.first_chunk_mut::<{ wire::MAX_LINE }>() {
+                    Some(buf) => wire::encode(&frame, buf),
+                    None => 0, // cannot happen: see the assertion above
+                }
+            }
+            Outgoing::Calibration {
+                capsules,
+                confidence,
+                centre_sample,
+            } => {
+                let cal = CalibrationLine::from_capsules(
+                    &capsules,
+                    confidence,
+                    calibration_seq,
+                    centre_sample,
+                    COUNTERS.calibration_dropped(),
+                );
+                calibration_seq = calibration_seq.wrapping_add(1);
+                match line.first_chunk_mut::<{ wire::MAX_CAL_LINE }>() {
+                    Some(buf) => wire::encode_calibration(&cal, buf),
+                    None => 0, // cannot happen: see the assertion above
+                }
+            }
+        };
         if let Err(err) = uart.write(&line[..n]).await {
             defmt::warn!("UART write failed: {}", err);
         }

@@ -3,9 +3,12 @@
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
 //! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
+//! * [`stored_capsules`] — the capsule estimate the self-calibration starts from, embedded at build
+//!   time (`CMA_SELFCAL=path`).
 //!
 //! The embassy application itself (`src/main.rs`, `src/app.rs`, `src/board.rs`) only builds for the target.
 #![no_std]
 
 pub mod sample;
 pub mod stats;
+pub mod stored_capsules;

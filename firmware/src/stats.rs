@@ -1,4 +1,4 @@
-//! Counters shared between the DSP task and the UART task.
+//! Counters shared between the DSP task and the UART task (overruns, frame and calibration lines dropped).
 //!
 //! Relaxed atomics suffice: each counter has one writer and is only reported, never used to order
 //! other memory accesses.
@@ -10,6 +10,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 pub struct Counters {
     overruns: AtomicU32,
     dropped: AtomicU32,
+    calibration_dropped: AtomicU32,
 }
 
 impl Counters {
@@ -19,6 +20,7 @@ impl Counters {
         Self {
             overruns: AtomicU32::new(0),
             dropped: AtomicU32::new(0),
+            calibration_dropped: AtomicU32::new(0),
         }
     }
 
@@ -30,6 +32,17 @@ impl Counters {
     /// Counts one estimate dropped because the UART queue was full.
     pub fn count_dropped(&self) {
         self.dropped.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Counts one calibration line dropped because the UART queue was full.
+    pub fn count_calibration_dropped(&self) {
+        self.calibration_dropped.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Calibration lines dropped by UART backpressure so far.
+    #[must_use]
+    pub fn calibration_dropped(&self) -> u32 {
+        self.calibration_dropped.load(Ordering::Relaxed)
     }
 
     /// DMA overruns so far.
@@ -55,6 +68,10 @@ mod tests {
         c.count_overrun();
         c.count_dropped();
         c.count_dropped();
-        assert_eq!((c.overruns(), c.dropped()), (1, 2));
+        c.count_calibration_dropped();
+        assert_eq!(
+            (c.overruns(), c.dropped(), c.calibration_dropped()),
+            (1, 2, 1)
+        );
     }
 }

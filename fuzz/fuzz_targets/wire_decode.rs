@@ -1,20 +1,50 @@
-//! cargo-fuzz target: arbitrary bytes through the line assembler and the decoder must never panic,
-//! and every accepted line must re-encode to exactly the bytes received (canonical format).
+//! cargo-fuzz target: arbitrary bytes through the line assembler and the decoders (frame line,
+//! calibration line, either kind) must never panic, and every accepted line must re-encode to
+//! exactly the bytes received (canonical format).
 #![no_main]
 
-use cma_core::wire::{decode, encode, LineAssembler, MAX_LINE};
+use cma_core::wire::{
+    decode, decode_calibration, decode_line, encode, encode_calibration, Line, LineAssembler,
+    MAX_ANY_LINE, MAX_CAL_LINE, MAX_LINE,
+};
 use libfuzzer_sys::fuzz_target;
+
+/// The encoder's bytes for a decoded line, without `\r\n`.
+fn reencoded(line: &Line) -> Vec<u8> {
+    match line {
+        Line::Frame(f) => {
+            let mut buf = [0u8; MAX_LINE];
+            let n = encode(f, &mut buf);
+            buf[..n - 2].to_vec()
+        }
+        Line::Calibration(c) => {
+            let mut buf = [0u8; MAX_CAL_LINE];
+            let n = encode_calibration(c, &mut buf);
+            buf[..n - 2].to_vec()
+        }
+    }
+}
 
 fuzz_target!(|data: &[u8]| {
     let _ = decode(data);
-    let mut asm = LineAssembler::<MAX_LINE>::new();
+    let _ = decode_calibration(data);
+    let _ = decode_line(data);
+    let mut asm = LineAssembler::<MAX_ANY_LINE>::new();
     asm.push_chunk(data, |line| {
-        if let Ok(frame) = decode(line) {
-            let mut buf = [0u8; MAX_LINE];
-            let n = encode(&frame, &mut buf);
-            // The assembler strips "\r\n"; an accepted line without "\r" is also canonical.
-            let body = line.strip_suffix(b"\r").unwrap_or(line);
-            assert_eq!(&buf[..n - 2], body);
+        // The assembler strips "\r\n"; an accepted line without "\r" is also canonical.
+        let body = line.strip_suffix(b"\r").unwrap_or(line);
+        let any = decode_line(line);
+        if let Ok(l) = &any {
+            assert_eq!(reencoded(l), body);
+        }
+        // The single-kind decoders agree with the dispatching one.
+        match decode(line) {
+            Ok(f) => assert_eq!(any, Ok(Line::Frame(f))),
+            Err(_) => assert!(!matches!(any, Ok(Line::Frame(_)))),
+        }
+        match decode_calibration(line) {
+            Ok(c) => assert_eq!(any, Ok(Line::Calibration(c))),
+            Err(_) => assert!(!matches!(any, Ok(Line::Calibration(_)))),
         }
     });
 });

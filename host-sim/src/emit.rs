@@ -1,14 +1,20 @@
 //! `host-sim emit`: a stand-in board. Runs the core on a WAV (exactly as `host-sim locate` does) and
-//! writes the estimates to a serial port as the firmware would: one [`cma_core::wire`] line per
+//! writes the estimates to a serial port as the firmware would: one [`cma_core::wire`] frame line per
 //! analysis frame, `seq` from 0, the WAV's sample rate, no overruns and no drops (the host never
-//! falls behind the WAV).
+//! falls behind the WAV); and, like the firmware, a calibration line (the self-calibration's state)
+//! before the first frame line and then every [`CALIBRATION_PERIOD_S`](wire::CALIBRATION_PERIOD_S)
+//! seconds of the WAV ([`CalibrationSchedule`]), after the frame line that made it due.
 
 use crate::config_args::ConfigArgs;
-use crate::error::Result;
-use crate::locate;
+use crate::error::{Result, SimError};
+use crate::locate::BLOCK;
+use crate::selfcal_file;
 use crate::serial_link::{self, DEFAULT_BAUD};
 use crate::wav_io::{self, InputLayout};
-use cma_core::wire::{self, Frame, MAX_LINE};
+use cma_core::wire::{
+    self, CalibrationLine, CalibrationSchedule, Frame, Line, MAX_CAL_LINE, MAX_LINE,
+};
+use cma_core::Locator;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -30,6 +36,10 @@ pub struct EmitArgs {
     /// Channel layout of the input.
     #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
     pub input_layout: InputLayout,
+    /// Start the self-calibration from this saved estimate (written by `locate --selfcal-out`), as
+    /// a board built with `CMA_SELFCAL` does.
+    #[arg(long)]
+    pub selfcal_in: Option<PathBuf>,
     /// Localizer configuration.
     #[command(flatten)]
     pub config: ConfigArgs,
@@ -38,52 +48,111 @@ pub struct EmitArgs {
 /// Give up when the port accepted nothing for this long (nobody reading, flow stopped).
 const WRITE_STALL: Duration = Duration::from_secs(10);
 
-/// The frames `emit` sends for a WAV: `locate`'s estimates through [`Frame::from_estimate`] with
-/// `seq` = row index (wrapping), the WAV's rate, 0 overruns, 0 drops. Returns them with the rate.
-pub fn frames(a: &EmitArgs) -> Result<(u32, Vec<Frame>)> {
+/// The lines `emit` sends for a WAV, in order: frame lines are `locate`'s estimates (the same
+/// blocks of [`BLOCK`] sample frames) through [`Frame::from_estimate`] with `seq` = row index
+/// (wrapping), the WAV's rate, 0 overruns, 0 drops; calibration lines as the firmware sends them
+/// (at start, then every [`wire::CALIBRATION_PERIOD_S`] s after the frame line that made one due;
+/// their own `seq` from 0, 0 drops). Returns them with the rate.
+pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
     let config = a.config.config()?;
     let table = a.config.ideal_table()?;
+    let start = a
+        .selfcal_in
+        .as_deref()
+        .map(selfcal_file::read)
+        .transpose()?;
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
-    let rows = locate::locate(&rec, config, table, |_| {})?;
-    let mut seq = 0u32;
-    let frames = rows
-        .iter()
-        .map(|r| {
-            let f = Frame::from_estimate(&r.estimate, seq, rec.rate, 0, 0);
+    let mut loc = Locator::new(config, table, rec.rate).map_err(|source| SimError::Core {
+        context: "configuration".into(),
+        source,
+    })?;
+    if let Some(start) = &start {
+        loc.set_capsule_estimate(start);
+    }
+    let mut out = Vec::with_capacity(rec.frames.len() / 256 + 2);
+    let mut schedule = CalibrationSchedule::new(rec.rate);
+    let (mut seq, mut calibration_seq) = (0u32, 0u32);
+    let mut calibration = |loc: &Locator<'_>, t: u64, out: &mut Vec<Line>| {
+        out.push(Line::Calibration(CalibrationLine::from_capsules(
+            loc.capsule_estimate(),
+            loc.capsule_confidence(),
+            calibration_seq,
+            t,
+            0,
+        )));
+        calibration_seq = calibration_seq.wrapping_add(1);
+    };
+    if schedule.due(0) {
+        calibration(&loc, 0, &mut out);
+    }
+    for block in rec.frames.chunks(BLOCK) {
+        let mut due = None;
+        loc.process_block(block, |e| {
+            out.push(Line::Frame(Frame::from_estimate(e, seq, rec.rate, 0, 0)));
             seq = seq.wrapping_add(1);
-            f
+            if schedule.due(e.centre_sample) {
+                due = Some(e.centre_sample);
+            }
+        });
+        if let Some(t) = due {
+            calibration(&loc, t, &mut out);
+        }
+    }
+    Ok((rec.rate, out))
+}
+
+/// The frame lines of [`lines`] alone.
+pub fn frames(a: &EmitArgs) -> Result<(u32, Vec<Frame>)> {
+    let (rate, lines) = lines(a)?;
+    let frames = lines
+        .into_iter()
+        .filter_map(|l| match l {
+            Line::Frame(f) => Some(f),
+            Line::Calibration(_) => None,
         })
         .collect();
-    Ok((rec.rate, frames))
+    Ok((rate, frames))
 }
 
 /// Runs `host-sim emit`.
 pub fn run(a: &EmitArgs) -> Result<()> {
-    let (rate, frames) = frames(a)?;
+    let (rate, lines) = lines(a)?;
     let mut port = serial_link::open(&a.port, a.baud)?;
-    let mut buf = [0u8; MAX_LINE];
+    let mut frame_buf = [0u8; MAX_LINE];
+    let mut cal_buf = [0u8; MAX_CAL_LINE];
     let start = Instant::now();
-    let mut bytes = 0usize;
-    for f in &frames {
-        if a.realtime {
-            if let Some(t) = f.time_s() {
-                let due = start + Duration::from_secs_f64(t.max(0.0));
-                let now = Instant::now();
-                if due > now {
-                    std::thread::sleep(due - now);
+    let (mut bytes, mut frames, mut calibrations) = (0usize, 0usize, 0usize);
+    for line in &lines {
+        let bytes_of_line: &[u8] = match line {
+            Line::Frame(f) => {
+                if a.realtime {
+                    if let Some(t) = f.time_s() {
+                        let due = start + Duration::from_secs_f64(t.max(0.0));
+                        let now = Instant::now();
+                        if due > now {
+                            std::thread::sleep(due - now);
+                        }
+                    }
                 }
+                frames += 1;
+                let n = wire::encode(f, &mut frame_buf);
+                &frame_buf[..n]
             }
-        }
-        let n = wire::encode(f, &mut buf);
-        serial_link::write_all(port.as_mut(), &a.port, &buf[..n], WRITE_STALL)?;
-        bytes += n;
+            Line::Calibration(c) => {
+                calibrations += 1;
+                let n = wire::encode_calibration(c, &mut cal_buf);
+                &cal_buf[..n]
+            }
+        };
+        serial_link::write_all(port.as_mut(), &a.port, bytes_of_line, WRITE_STALL)?;
+        bytes += bytes_of_line.len();
     }
     // Wait until the last byte has left (tcdrain), so a following close loses nothing.
     port.flush()
         .map_err(|e| crate::error::SimError::io(&a.port, e))?;
     eprintln!(
-        "emit: {} frames ({bytes} bytes, {rate} Hz input) to {} at {} baud in {:.2} s",
-        frames.len(),
+        "emit: {frames} frames and {calibrations} calibration lines ({bytes} bytes, {rate} Hz \
+         input) to {} at {} baud in {:.2} s",
         a.port.display(),
         a.baud,
         start.elapsed().as_secs_f64()

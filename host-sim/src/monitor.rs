@@ -4,8 +4,15 @@
 //! (sequence gaps) and the board's own overrun/drop counters. `--record` writes the frames as the CSV of
 //! `host-sim locate` for `host-sim eval`/`host-sim score`.
 //!
+//! The board's calibration lines (`$CAL`, the self-calibration's state, one every 10 s) are decoded
+//! too: the live view shows the last one in one line ([`calibration_summary`]), `--plain` prints
+//! each as a `selfcal …` line ([`calibration_plain_line`]) between the frame lines. `--record` keeps
+//! recording frames only (its CSV is `locate`'s); a calibration line is not a frame and does not
+//! count in the frame counters.
+//!
 //! Counter definitions (exact, the serial round-trip test checks them):
-//! - *frames*: lines that decoded;
+//! - *frames*: frame lines that decoded;
+//! - *calibration lines*: calibration lines that decoded;
 //! - *corrupt lines*: candidate lines (`$` … `\n`) that did not decode, plus partial lines cut short
 //!   by a `$` and lines longer than [`MAX_LINE`] ([`LineAssembler`]'s `interrupted` and `overlong`);
 //! - *lost frames*: sequence numbers missing between consecutive decoded frames (`seq` steps of 2 or
@@ -20,8 +27,13 @@ use crate::error::{Result, SimError};
 use crate::estimate_output::{flag_names, Format};
 use crate::locate::CSV_HEADER;
 use crate::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
-use cma_core::wire::{self, AssemblerStats, DecodeError, Frame, LineAssembler, MAX_LINE};
+use cma_core::capsule_calibration::CAL_BANDS;
+use cma_core::wire::{
+    self, AssemblerStats, CalibrationLine, DecodeError, Frame, Line, LineAssembler, MAX_ANY_LINE,
+    MAX_LINE, PART_SCALE,
+};
 use cma_core::Flags;
+use cma_core::CARDIOIDS;
 use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::io::{IsTerminal, Write};
@@ -43,7 +55,8 @@ pub struct MonitorArgs {
     /// One text line per frame instead of the live view (automatic when stdout is not a terminal).
     #[arg(long)]
     pub plain: bool,
-    /// Record the frames to this file (the columns of `host-sim locate`; power_db is empty: not sent).
+    /// Record the frames to this file (the columns of `host-sim locate`; power_db is empty: not sent;
+    /// calibration lines are not recorded).
     #[arg(long)]
     pub record: Option<PathBuf>,
     /// Format of --record: CSV, or one JSON object per line.
@@ -64,6 +77,8 @@ pub struct Counters {
     pub bytes: u64,
     /// Frames decoded.
     pub frames: u64,
+    /// Calibration lines decoded.
+    pub calibration_lines: u64,
     /// Candidate lines rejected by the decoder, cut short by a `$`, or too long.
     pub corrupt_lines: u64,
     /// Sequence numbers missing between consecutive decoded frames.
@@ -87,7 +102,8 @@ impl Counters {
     pub fn summary(&self, reopens: u64) -> String {
         format!(
             "frames={} corrupt_lines={} lost_frames={} gap_events={} duplicates={} restarts={} \
-             garbage_bytes={} bytes={} board_overruns={} board_dropped={} reopens={}",
+             garbage_bytes={} bytes={} board_overruns={} board_dropped={} reopens={} \
+             calibration_lines={}",
             self.frames,
             self.corrupt_lines,
             self.lost_frames,
@@ -98,7 +114,8 @@ impl Counters {
             self.bytes,
             self.board_overruns,
             self.board_dropped,
-            reopens
+            reopens,
+            self.calibration_lines
         )
     }
 }
@@ -123,7 +140,7 @@ pub const WRONG_BAUD_TEXT_SHARE: f64 = 0.75;
 /// The byte-stream decoder of the monitor: line assembly, decoding, counters. No I/O.
 #[derive(Debug, Clone, Default)]
 pub struct Decoder {
-    asm: LineAssembler<MAX_LINE>,
+    asm: LineAssembler<MAX_ANY_LINE>,
     seen: AssemblerStats,
     counters: Counters,
     last_seq: Option<u32>,
@@ -139,8 +156,18 @@ impl Decoder {
         Self::default()
     }
 
-    /// Feeds received bytes; `on_frame` gets each decoded frame.
+    /// Feeds received bytes; `on_frame` gets each decoded frame (calibration lines are counted but
+    /// not passed on).
     pub fn feed(&mut self, bytes: &[u8], mut on_frame: impl FnMut(&Frame)) {
+        self.feed_lines(bytes, |l| {
+            if let Line::Frame(f) = l {
+                on_frame(f);
+            }
+        });
+    }
+
+    /// Feeds received bytes; `on_line` gets each decoded line, frame or calibration.
+    pub fn feed_lines(&mut self, bytes: &[u8], mut on_line: impl FnMut(&Line)) {
         let Decoder {
             asm,
             counters,
@@ -157,15 +184,20 @@ impl Decoder {
                 *text_since_frame += 1;
             }
             let Some(line) = asm.push(b) else { continue };
-            match wire::decode(line) {
-                Ok(f) => {
-                    count_seq(counters, last_seq, f.seq);
-                    counters.frames += 1;
-                    counters.board_overruns = f.overruns;
-                    counters.board_dropped = f.dropped;
+            match wire::decode_line(line) {
+                Ok(l) => {
+                    match &l {
+                        Line::Frame(f) => {
+                            count_seq(counters, last_seq, f.seq);
+                            counters.frames += 1;
+                            counters.board_overruns = f.overruns;
+                            counters.board_dropped = f.dropped;
+                        }
+                        Line::Calibration(_) => counters.calibration_lines += 1,
+                    }
                     *bytes_since_frame = 0;
                     *text_since_frame = 0;
-                    on_frame(&f);
+                    on_line(&l);
                 }
                 Err(e) => {
                     counters.corrupt_lines += 1;
@@ -289,6 +321,81 @@ pub fn plain_line(f: &Frame) -> String {
         f.overruns,
         f.dropped
     )
+}
+
+/// Gains (dB) and patterns β of the three cardioids, each the mean over the line's bands.
+#[must_use]
+pub fn calibration_means(c: &CalibrationLine) -> ([f64; CARDIOIDS], [f64; CARDIOIDS]) {
+    let est = c.capsules();
+    let (mut gain_db, mut beta) = ([0.0; CARDIOIDS], [0.0; CARDIOIDS]);
+    for m in 0..CARDIOIDS {
+        for b in &est.bands {
+            gain_db[m] += f64::from(b.gain_db(m)) / CAL_BANDS as f64;
+            beta[m] += f64::from(b.beta(m)) / CAL_BANDS as f64;
+        }
+    }
+    (gain_db, beta)
+}
+
+/// The live view's line for a calibration line (at most 62 characters): confidence, each
+/// cardioid's gain (dB) and pattern β as means over the bands, and `held` when the estimate is held.
+/// E.g. `selfcal 0.83  gain +0.42 -0.80 +0.20 dB  β .470 .550 .500  held`.
+#[must_use]
+pub fn calibration_summary(c: &CalibrationLine) -> String {
+    let (gain_db, beta) = calibration_means(c);
+    // ".470": β lies in (0, 1); a value of 1 or more (not a plausible cardioid) keeps its digit.
+    let b = |v: f64| {
+        let s = format!("{:.3}", v.clamp(0.0, 9.999));
+        s.strip_prefix('0').map(str::to_string).unwrap_or(s)
+    };
+    format!(
+        "selfcal {:.2}  gain {:+.2} {:+.2} {:+.2} dB  β {} {} {}{}",
+        c.confidence(),
+        gain_db[0].clamp(-99.0, 99.0),
+        gain_db[1].clamp(-99.0, 99.0),
+        gain_db[2].clamp(-99.0, 99.0),
+        b(beta[0]),
+        b(beta[1]),
+        b(beta[2]),
+        if c.held { "  held" } else { "" }
+    )
+}
+
+/// One `--plain` line for a calibration line: `selfcal`, the line's fields (`t` in board samples),
+/// the mean gains and patterns, then per band `n` and the omni and dipole parts exactly as sent.
+#[must_use]
+pub fn calibration_plain_line(c: &CalibrationLine) -> String {
+    let (gain_db, beta) = calibration_means(c);
+    let mut s = format!(
+        "selfcal seq={} t={} conf={:.3} held={} drop={} gain_db={:+.2},{:+.2},{:+.2} \
+         beta={:.3},{:.3},{:.3}",
+        c.seq,
+        c.centre_sample,
+        c.confidence(),
+        u8::from(c.held),
+        c.dropped,
+        gain_db[0],
+        gain_db[1],
+        gain_db[2],
+        beta[0],
+        beta[1],
+        beta[2]
+    );
+    let part = |v: u16| f64::from(v) / f64::from(PART_SCALE);
+    for (k, b) in c.bands.iter().enumerate() {
+        let _ = write!(
+            s,
+            " band{k}=n:{},a:{:.4}/{:.4}/{:.4},b:{:.4}/{:.4}/{:.4}",
+            b.peaks,
+            part(b.omni_part[0]),
+            part(b.omni_part[1]),
+            part(b.omni_part[2]),
+            part(b.dipole_part[0]),
+            part(b.dipole_part[1]),
+            part(b.dipole_part[2])
+        );
+    }
+    s
 }
 
 /// `(NAME|NAME)` of the set flags, or nothing.
@@ -483,6 +590,7 @@ struct View<'a> {
     baud: u32,
     connected: bool,
     last: Option<&'a Frame>,
+    calibration: Option<&'a CalibrationLine>,
     counters: Counters,
     reopens: u64,
     fps: f64,
@@ -566,6 +674,10 @@ fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     if let Some(p) = v.recording {
         info.push(format!("recording   {}", p.display()));
     }
+    let selfcal = v.calibration.map_or_else(
+        || "selfcal --  (no calibration line yet)".to_string(),
+        calibration_summary,
+    );
     let mut lines =
         vec!["host-sim monitor — talker azimuth (0° = cardioid 1, counter-clockwise)".to_string()];
     if cols >= FULL_VIEW.0 && rows >= FULL_VIEW.1 {
@@ -576,9 +688,11 @@ fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
             let right = info.get(i).map_or("", String::as_str);
             lines.push(format!("{left:<w$}{right}", w = ROSE_COLUMN));
         }
+        lines.push(selfcal);
         lines.push(LEGEND.to_string());
     } else {
         lines.extend(info);
+        lines.push(selfcal);
     }
     lines.push(v.status.clone().unwrap_or_default());
     // Never wrap (a wrapped line scrolls the view), never scroll: cut to the terminal.
@@ -638,6 +752,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
     let mut dec = Decoder::new();
     let mut meter = RateMeter::default();
     let mut last: Option<Frame> = None;
+    let mut last_calibration: Option<CalibrationLine> = None;
     let mut buf = [0u8; 4096];
     let mut last_byte = Instant::now();
     let mut last_draw: Option<Instant> = None;
@@ -656,17 +771,26 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                 last_byte = now;
                 let mut failure = None;
                 let mut out = stdout.lock();
-                dec.feed(&buf[..n], |f| {
-                    meter.tick(now);
-                    last = Some(*f);
-                    if !live {
-                        if let Err(e) = writeln!(out, "{}", plain_line(f)) {
-                            failure.get_or_insert(SimError::io("<stdout>", e));
+                dec.feed_lines(&buf[..n], |line| {
+                    let text = match line {
+                        Line::Frame(f) => {
+                            meter.tick(now);
+                            last = Some(*f);
+                            if let Some(r) = recorder.as_mut() {
+                                if let Err(e) = r.write(f) {
+                                    failure.get_or_insert(e);
+                                }
+                            }
+                            (!live).then(|| plain_line(f))
                         }
-                    }
-                    if let Some(r) = recorder.as_mut() {
-                        if let Err(e) = r.write(f) {
-                            failure.get_or_insert(e);
+                        Line::Calibration(c) => {
+                            last_calibration = Some(*c);
+                            (!live).then(|| calibration_plain_line(c))
+                        }
+                    };
+                    if let Some(text) = text {
+                        if let Err(e) = writeln!(out, "{text}") {
+                            failure.get_or_insert(SimError::io("<stdout>", e));
                         }
                     }
                 });
@@ -722,6 +846,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                 baud: a.baud,
                 connected: link.is_connected(),
                 last: last.as_ref(),
+                calibration: last_calibration.as_ref(),
                 counters: dec.counters(),
                 reopens: link.reopens,
                 fps: meter.per_second(now),
@@ -781,6 +906,64 @@ mod tests {
         let mut buf = [0u8; MAX_LINE];
         let n = wire::encode(&f, &mut buf);
         buf[..n].to_vec()
+    }
+
+    /// A calibration line: band 1 of cardioid 0 is 1 dB hot with β 0.45, the rest ideal.
+    fn calibration(held: bool) -> CalibrationLine {
+        use cma_core::capsule_calibration::CapsuleEstimate;
+        let mut est = CapsuleEstimate::IDEAL;
+        let g = 10f32.powf(1.0 / 20.0);
+        est.bands[1].omni_part[0] = 0.55 * g;
+        est.bands[1].dipole_part[0] = 0.45 * g;
+        for b in &mut est.bands {
+            b.peaks = 1234.0;
+        }
+        est.held = held;
+        CalibrationLine::from_capsules(&est, 0.834, 2, 960_000, 0)
+    }
+
+    fn calibration_bytes(c: &CalibrationLine) -> Vec<u8> {
+        let mut buf = [0u8; wire::MAX_CAL_LINE];
+        let n = wire::encode_calibration(c, &mut buf);
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn calibration_lines_are_decoded_shown_and_not_counted_as_frames() {
+        let mut d = Decoder::new();
+        let mut stream = calibration_bytes(&calibration(false));
+        stream.extend_from_slice(&line(1));
+        stream.extend_from_slice(&calibration_bytes(&calibration(true)));
+        stream.extend_from_slice(&line(2));
+        let mut got = Vec::new();
+        d.feed_lines(&stream, |l| got.push(*l));
+        assert_eq!(got.len(), 4);
+        assert_eq!(got[0], Line::Calibration(calibration(false)));
+        assert!(matches!(got[1], Line::Frame(Frame { seq: 1, .. })));
+        let c = d.counters();
+        assert_eq!((c.frames, c.calibration_lines), (2, 2));
+        assert_eq!((c.corrupt_lines, c.lost_frames, c.garbage_bytes), (0, 0, 0));
+        assert!(c.summary(0).ends_with(" reopens=0 calibration_lines=2"));
+        // `feed` passes frames only.
+        let mut frames = Vec::new();
+        Decoder::new().feed(&stream, |f| frames.push(f.seq));
+        assert_eq!(frames, [1, 2]);
+
+        let summary = calibration_summary(&calibration(false));
+        assert_eq!(
+            summary,
+            "selfcal 0.83  gain +0.25 +0.00 +0.00 dB  β .487 .500 .500"
+        );
+        assert!(calibration_summary(&calibration(true)).ends_with(".500  held"));
+        let plain = calibration_plain_line(&calibration(true));
+        assert!(
+            plain.starts_with(
+                "selfcal seq=2 t=960000 conf=0.834 held=1 drop=0 gain_db=+0.25,+0.00,+0.00 \
+                 beta=0.487,0.500,0.500 band0=n:1234,a:0.5000/0.5000/0.5000,b:0.5000/0.5000/0.5000 \
+                 band1=n:1234,a:0.6171/0.5000/0.5000,b:0.5049/0.5000/0.5000 band2="
+            ),
+            "{plain}"
+        );
     }
 
     #[test]
@@ -887,6 +1070,7 @@ mod tests {
             baud: 115200,
             connected: true,
             last: None,
+            calibration: None,
             counters: Counters::default(),
             reopens: 0,
             fps: 0.0,
@@ -894,6 +1078,7 @@ mod tests {
             recording: None,
         };
         assert!(render(&v, 80, 24).contains("waiting for frames"));
+        assert!(render(&v, 80, 24).contains("selfcal --  (no calibration line yet)"));
     }
 
     #[test]
@@ -916,11 +1101,18 @@ mod tests {
             gap_events: 4321,
             ..Counters::default()
         };
+        // The widest summary: every gain at its clamp, held.
+        let mut cal = calibration(true);
+        for b in &mut cal.bands {
+            b.omni_part = [wire::PART_MAX, 1, 3000];
+            b.dipole_part = [wire::PART_MAX, 1, 7000];
+        }
         let v = View {
             port: Path::new("/dev/serial/by-id/usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0"),
             baud: 921_600,
             connected: false,
             last: Some(&f),
+            calibration: Some(&cal),
             counters,
             reopens: 17,
             fps: 62.5,
@@ -948,8 +1140,14 @@ mod tests {
             assert_eq!(lines.contains(&LEGEND), has_rose);
             assert!(lines.last().unwrap().starts_with("no valid frames"));
             if has_rose {
-                // Title, blank, 17 rows of rose, legend, status.
-                assert_eq!(lines.len(), 21);
+                // Title, blank, 17 rows of rose, self-calibration, legend, status.
+                assert_eq!(lines.len(), 22);
+                assert!(
+                    lines[19].starts_with("selfcal 0.83  gain "),
+                    "{}",
+                    lines[19]
+                );
+                assert!(lines[19].ends_with("held"), "{}", lines[19]);
             }
         }
     }

@@ -11,16 +11,17 @@
 //! One row per band (edges [`CAL_BAND_EDGES_HZ`]; the last band runs to Nyquist, written as 0):
 //! the background peaks behind the estimate, then each cardioid's omni part a_m and dipole part b_m
 //! (X_m = a_m·W + b_m·D_m; the ideal cardioid has a = b = 0.5; gain g = a + b, pattern β = b/g).
+//!
+//! The parser is the core's [`cma_core::capsule_estimate_file`], which the firmware's build script
+//! uses too (`CMA_SELFCAL=path`), so both read the file with the same rules.
 
 use crate::error::{Result, SimError};
-use cma_core::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS, CAL_BAND_EDGES_HZ};
+use cma_core::capsule_calibration::{CapsuleEstimate, CAL_BAND_EDGES_HZ};
+use cma_core::capsule_estimate_file;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// First line of the file.
-pub const MAGIC: &str = "# cma self-calibration v1";
-/// Column header.
-pub const HEADER: &str = "band,f_lo_hz,f_hi_hz,peaks,a0,a1,a2,b0,b1,b2";
+pub use cma_core::capsule_estimate_file::{HEADER, MAGIC};
 
 /// Band edges (lo, hi) in Hz; hi = 0 for the open top band.
 #[must_use]
@@ -51,69 +52,11 @@ pub fn format(est: &CapsuleEstimate) -> String {
 
 /// Parses the file's text; `path` names it in errors.
 pub fn parse(text: &str, path: &Path) -> Result<CapsuleEstimate> {
-    let bad = |line: usize, reason: String| SimError::BadCsv {
+    capsule_estimate_file::parse(text).map_err(|e| SimError::BadCsv {
         path: path.to_path_buf(),
-        line,
-        reason,
-    };
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.lines().enumerate();
-    match lines.next() {
-        Some((_, l)) if l.trim() == MAGIC => {}
-        _ => {
-            return Err(bad(
-                1,
-                format!("not a self-calibration file: the first line must be `{MAGIC}`"),
-            ))
-        }
-    }
-    match lines.next() {
-        Some((_, l)) if l.trim() == HEADER => {}
-        _ => return Err(bad(2, format!("expected the header `{HEADER}`"))),
-    }
-    let mut est = CapsuleEstimate::IDEAL;
-    let mut seen = [false; CAL_BANDS];
-    for (i, line) in lines {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        if f.len() != 10 {
-            return Err(bad(i + 1, format!("expected 10 fields, got {}", f.len())));
-        }
-        let band: usize = f[0]
-            .parse()
-            .ok()
-            .filter(|b| *b < CAL_BANDS)
-            .ok_or_else(|| bad(i + 1, format!("band `{}` is not 0…{}", f[0], CAL_BANDS - 1)))?;
-        let mut v = [0f32; 7];
-        for (k, slot) in v.iter_mut().enumerate() {
-            let text = f[3 + k];
-            *slot = text
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite() && x.abs() <= f64::from(f32::MAX))
-                .ok_or_else(|| bad(i + 1, format!("`{text}` is not a finite number")))?
-                as f32;
-        }
-        let model = BandModel {
-            peaks: v[0],
-            omni_part: [v[1], v[2], v[3]],
-            dipole_part: [v[4], v[5], v[6]],
-        };
-        if !model.is_plausible() {
-            return Err(bad(
-                i + 1,
-                "not a plausible cardioid (need 0.3 < a, b < 0.75 and peaks ≥ 0)".into(),
-            ));
-        }
-        est.bands[band] = model;
-        seen[band] = true;
-    }
-    if let Some(missing) = seen.iter().position(|s| !s) {
-        return Err(bad(0, format!("band {missing} is missing")));
-    }
-    Ok(est)
+        line: e.line,
+        reason: e.kind.to_string(),
+    })
 }
 
 /// Reads a file written by [`write()`].

@@ -2,9 +2,10 @@
 //!
 //! Needs Debian's `socat` (`apt-get install socat`); without it these tests FAIL on purpose.
 
+use cma_core::wire::Line;
 use cma_core::wire::{self, Frame, MAX_LINE};
 use host_sim::locate::{self, CSV_HEADER};
-use host_sim::monitor::plain_line;
+use host_sim::monitor::{calibration_plain_line, plain_line};
 use std::collections::{BTreeSet, HashMap};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -284,8 +285,9 @@ fn emit_to_monitor_round_trip_equals_locate() {
         assert_eq!(r[5], "", "power_db is not transmitted");
         assert_eq!(r[6], l[6], "flags, row {i}");
     }
-    // The plain output carries every field, ovr/drop included.
-    let plain: Vec<&str> = stdout.lines().collect();
+    // The plain output carries every field, ovr/drop included (calibration lines are checked in
+    // `emit_to_monitor_carries_calibration_lines`).
+    let plain: Vec<&str> = stdout.lines().filter(|l| l.starts_with("seq=")).collect();
     let want: Vec<String> = frames.iter().map(plain_line).collect();
     assert_eq!(plain, want);
     assert_eq!(counters["frames"], frames.len() as u64);
@@ -321,6 +323,88 @@ fn emit_to_monitor_round_trip_equals_locate() {
         m_rec.mae,
         m_loc.mae
     );
+}
+
+/// The lines `host-sim emit` sends for `wav` (default configuration).
+fn emit_lines(wav: &Path) -> Vec<Line> {
+    let cli = <host_sim::Cli as clap::Parser>::try_parse_from([
+        "host-sim".into(),
+        "emit".into(),
+        wav.as_os_str().to_owned(),
+        "--port".into(),
+        "/dev/null".into(),
+    ])
+    .expect("parse emit args");
+    let host_sim::Command::Emit(a) = cli.command else {
+        unreachable!("parsed an emit command")
+    };
+    host_sim::emit::lines(&a).expect("emit lines").1
+}
+
+/// Calibration lines end to end: `emit` sends one before the first frame and one after the frame
+/// that is 10 s into the scene; the monitor decodes both (its `selfcal` plain lines are exactly
+/// those of the lines sent, in their place between the frame lines), counts them apart from the
+/// frames, and `--record` keeps frames only.
+#[test]
+fn emit_to_monitor_carries_calibration_lines() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let wav = scene(dir.path(), 12.0);
+    let pty = PtyPair::start(dir.path());
+    let rec = dir.path().join("rec.csv");
+    let mon = MonitorProc::start(
+        &pty.b,
+        &[
+            "--record",
+            rec.to_str().unwrap(),
+            "--exit-after-idle",
+            "1.5",
+        ],
+    );
+    let st = Command::new(BIN)
+        .arg("emit")
+        .arg(&wav)
+        .arg("--port")
+        .arg(&pty.a)
+        .status()
+        .expect("run host-sim emit");
+    assert!(st.success());
+    let (stdout, counters) = mon.finish();
+
+    let sent = emit_lines(&wav);
+    let want: Vec<String> = sent
+        .iter()
+        .map(|l| match l {
+            Line::Frame(f) => plain_line(f),
+            Line::Calibration(c) => calibration_plain_line(c),
+        })
+        .collect();
+    let got: Vec<&str> = stdout.lines().collect();
+    assert_eq!(got, want);
+    let cals: Vec<_> = sent
+        .iter()
+        .filter_map(|l| match l {
+            Line::Calibration(c) => Some(*c),
+            Line::Frame(_) => None,
+        })
+        .collect();
+    let n_frames = sent.len() - cals.len();
+    assert_eq!(cals.len(), 2, "{cals:?}");
+    assert!(matches!(sent[0], Line::Calibration(c) if c.seq == 0 && c.centre_sample == 0));
+    assert_eq!(cals[1].seq, 1);
+    assert!(
+        (480_000..480_000 + 1024).contains(&cals[1].centre_sample),
+        "{}",
+        cals[1].centre_sample
+    );
+    assert!(got[0].starts_with("selfcal seq=0 t=0 "), "{}", got[0]);
+    assert_eq!(counters["calibration_lines"], 2);
+    assert_eq!(counters["frames"], n_frames as u64);
+    for k in ["corrupt_lines", "lost_frames", "garbage_bytes"] {
+        assert_eq!(counters[k], 0, "{k}");
+    }
+    let rec_text = std::fs::read_to_string(&rec).unwrap();
+    assert_eq!(rec_text.lines().count(), n_frames + 1, "frames only");
+    assert!(!rec_text.contains("selfcal"));
 }
 
 /// xorshift64*: a small seeded generator, so the corruption is reproducible.
@@ -511,7 +595,9 @@ fn monitor_survives_unplug_and_replug() {
     mon.wait_for_stderr("reopened", Duration::from_secs(5));
     emit(&pty.a);
     let (stdout, counters) = mon.finish();
-    assert_eq!(stdout.lines().count(), 2 * frames.len());
+    let frame_lines = stdout.lines().filter(|l| l.starts_with("seq=")).count();
+    assert_eq!(frame_lines, 2 * frames.len());
+    assert_eq!(counters["calibration_lines"], 2, "one at each start");
     assert_eq!(counters["frames"], 2 * frames.len() as u64);
     assert_eq!(counters["reopens"], 1);
     assert_eq!(counters["restarts"], 1);
