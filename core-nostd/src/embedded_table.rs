@@ -17,7 +17,8 @@
 //! CMA_TABLE=/abs/path/array42.cmat cargo build --release -p firmware
 //! CMA_TABLE=/abs/path/array42.cmat CMA_TABLE_FEATURES=active cargo build --release -p firmware
 //! ```
-//! and in the firmware: `ReferenceTable::embedded()` instead of `ReferenceTable::ideal_5deg()`.
+//! The firmware localizes with `ReferenceTable::embedded()` (and the self-calibration off when the
+//! table is measured).
 
 use crate::reference_table::ReferenceTable;
 

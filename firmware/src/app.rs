@@ -68,12 +68,19 @@ pub async fn run(spawner: Spawner) {
 /// main task's frame.
 #[inline(never)]
 fn init_locator() -> &'static mut Locator<'static> {
-    // Note(unwrap-like panic): the default configuration and the built-in table are valid at 48 kHz;
-    // a failure here is a build defect and panics at boot.
+    // The table embedded at build time: measured with `CMA_TABLE`, else the ideal model. A measured
+    // table already describes the capsules, so the self-calibration (which maps them to the ideal
+    // model) is off with one.
+    let mut config = LocatorConfig::default();
+    if cma_core::embedded_table::HAS_MEASURED_TABLE {
+        config.capsule_calibration.enabled = false;
+    }
+    // Note(unwrap-like panic): the default configuration and the embedded table (checked when it was
+    // built in) are valid at 48 kHz; a failure here is a build defect and panics at boot.
     let locator = match Locator::init_in_place(
         LOCATOR.uninit(),
-        LocatorConfig::default(),
-        ReferenceTable::ideal_5deg(),
+        config,
+        ReferenceTable::embedded(),
         SAMPLE_RATE_HZ,
     ) {
         Ok(l) => l,
