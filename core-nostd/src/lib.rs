@@ -1,8 +1,37 @@
 //! # cma-core — similarity localizer for a coincident microphone array
 //!
-//! `no_std`, heap-free implementation of the *similarity approach* of Kreuzer's diploma thesis
+//! `no_std`, heap-free implementation of the *similarity approach* of K. Freiberger's diploma thesis
 //! ("Development and Evaluation of Source Localization Algorithms for Coincident Microphone Arrays",
-//! chapters 4–5) for the CMA1 array: channel 0 omni, channels 1–3 cardioids looking at 0°, 120°, 240°.
+//! IEM Graz, chapters 4–5; K. Freiberger and A. Sontacchi, DAFx-11) for the CMA1 array: channel 0
+//! omni, channels 1–3 cardioids looking at 0°, 120°, 240°.
+//!
+//! ```
+//! use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
+//!
+//! // A talker at 60°: a plane wave of noise, W for the omni and ½W + ½W·cos(60° − φ_m) for the
+//! // cardioids, at 16 kHz.
+//! let mut locator = Locator::new(LocatorConfig::default(), ReferenceTable::ideal_5deg(), 16_000)?;
+//! let mut seed = 1u32;
+//! let mut noise = move || {
+//!     seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+//!     (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+//! };
+//! let gains = [0.0f32, 120.0, 240.0].map(|look| 0.5 + 0.5 * (60.0 - look).to_radians().cos());
+//! let block: Vec<[f32; 4]> = (0..16_000)
+//!     .map(|_| {
+//!         let w = 0.3 * noise();
+//!         [w, gains[0] * w, gains[1] * w, gains[2] * w]
+//!     })
+//!     .collect();
+//! let mut last = None;
+//! // Any block size works (a DMA half-buffer on the board); one callback per analysis frame.
+//! for chunk in block.chunks(256) {
+//!     locator.process_block(chunk, |e: &Estimate| last = Some(*e));
+//! }
+//! let e = last.expect("one second gives many analysis frames");
+//! assert!((e.azimuth_deg - 60.0).abs() < 3.0, "{}", e.azimuth_deg);
+//! # Ok::<(), cma_core::Error>(())
+//! ```
 //!
 //! The pipeline, one module per stage:
 //!
