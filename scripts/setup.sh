@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the tests need on a fresh Debian machine (idempotent): the Cortex-M4F Rust target and
 # LLVM tools, QEMU (the core on the emulated M4F), socat (serial pty pairs), gcc (the QEMU
-# instruction-count plugin) and a TrueType font for the plots.
+# instruction-count plugin), a TrueType font for the plots and flip-link (the Cortex-M linker).
 set -euo pipefail
 need=()
 command -v qemu-system-arm >/dev/null || need+=(qemu-system-arm)
@@ -16,3 +16,5 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 rustup target add thumbv7em-none-eabihf
 rustup component add llvm-tools clippy rustfmt
+# flip-link: the linker of the Cortex-M builds (.cargo/config.toml), stack-overflow protection.
+command -v flip-link >/dev/null || cargo install --locked flip-link

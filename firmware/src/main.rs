@@ -18,6 +18,17 @@ mod runtime {
     use defmt_rtt as _;
     use panic_probe as _;
 
+    // Log lines carry the time since boot (µs, from the embassy time driver).
+    defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());
+
+    /// What `defmt::panic!` and failed `defmt` assertions end in: panic-probe has already logged the
+    /// message, so this only stops (a debugger halts here; without one the watchdog resets the chip),
+    /// instead of formatting and printing the panic a second time.
+    #[defmt::panic_handler]
+    fn defmt_panic() -> ! {
+        cortex_m::asm::udf()
+    }
+
     #[embassy_executor::main]
     async fn main(spawner: embassy_executor::Spawner) {
         crate::app::run(spawner).await;
