@@ -21,9 +21,9 @@ mod runtime {
     // Log lines carry the time since boot (µs, from the embassy time driver).
     defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());
 
-    /// What `defmt::panic!` and failed `defmt` assertions end in: panic-probe has already logged the
-    /// message, so this only stops (a debugger halts here; without one the watchdog resets the chip),
-    /// instead of formatting and printing the panic a second time.
+    /// What `defmt::panic!` and failed `defmt` assertions end in, after they have logged their
+    /// message: this only stops (a debugger halts here; without one the watchdog resets the chip),
+    /// instead of handing over to `core::panic!` and panic-probe, which would print it a second time.
     #[defmt::panic_handler]
     fn defmt_panic() -> ! {
         cortex_m::asm::udf()
