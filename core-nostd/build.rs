@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 // The table-file parser of the core itself (no_std, `core` only), so the build reads exactly the
 // format the host tools write.
 #[allow(dead_code)]
-#[path = "src/table_file.rs"]
+#[path = "src/formats/table_file.rs"]
 mod table_file;
 
 const FRAME_LEN: usize = 512;

@@ -33,7 +33,9 @@
 //! # Ok::<(), cma_core::Error>(())
 //! ```
 //!
-//! The pipeline, one module per stage:
+//! The source tree groups the modules by part: [`frontend`], [`analysis`], [`localization`],
+//! [`tracking`], [`baselines`], [`thesis_options`], [`formats`], [`arith`]; each module is also
+//! reachable at the crate root (`cma_core::spectrum`, …). The pipeline, one module per stage:
 //!
 //! 1. [`decimator`] — half-band anti-alias cascade, 48 kHz → 12 kHz (44.1 → 11.025, 16 kHz passes);
 //!    [`block_decimator`] runs it over pieces of interleaved input, all stages in one pass;
@@ -64,52 +66,35 @@
 #![no_std]
 #![deny(clippy::float_cmp_const)]
 
-pub mod angle;
-pub mod beamformer;
-pub mod bformat;
-pub mod block_decimator;
-pub mod capsule_calibration;
-pub mod capsule_estimate_file;
-pub mod cartesian_filter;
-pub mod combination;
+pub mod analysis;
+pub mod arith;
+pub mod baselines;
 pub mod config;
-pub mod curve_kernel;
-pub mod decimator;
-pub mod direct_sound;
-pub mod distance;
-pub mod embedded_table;
 pub mod error;
 pub mod estimate;
-pub mod fast_exp;
-pub mod fast_math;
-pub mod fdiv;
-pub mod features;
-#[cfg(target_arch = "x86_64")]
-mod fft_x86;
-pub mod frame_onset;
-pub mod frame_quality;
-pub mod framer;
-pub mod front_end;
-pub mod grid_tracker;
-pub mod input_guard;
-pub mod interpolation;
+pub mod formats;
+pub mod frontend;
+pub mod localization;
 pub mod locator;
-pub mod noise_floor;
-pub mod noisy_reference;
-pub mod peak_picker;
-pub mod power_ramp;
-pub mod reference_table;
-pub mod refine_curve;
-pub mod reliability;
-pub mod running_curve;
-pub mod similarity;
-pub mod spectrum;
-pub mod table_file;
-pub mod tables;
-pub mod tdiv;
 #[cfg(test)]
 mod test_rng;
-pub mod wire;
+pub mod thesis_options;
+pub mod tracking;
+
+// Every stage module also at the crate root, where the rest of the crate and its users name it.
+#[cfg(target_arch = "x86_64")]
+pub(crate) use analysis::fft_x86;
+pub use analysis::{capsule_calibration, direct_sound, features, peak_picker, spectrum};
+pub use arith::{angle, fast_exp, fast_math};
+pub use baselines::{bformat, fdiv, tdiv};
+pub use formats::{capsule_estimate_file, table_file, wire};
+pub use frontend::{block_decimator, decimator, framer, front_end, input_guard};
+pub use localization::{
+    curve_kernel, embedded_table, frame_onset, interpolation, noise_floor, noisy_reference,
+    power_ramp, reference_table, reliability, similarity, tables,
+};
+pub use thesis_options::{beamformer, cartesian_filter, combination, distance, frame_quality};
+pub use tracking::{grid_tracker, refine_curve, running_curve};
 
 pub use config::{LocatorConfig, Method};
 pub use error::Error;
