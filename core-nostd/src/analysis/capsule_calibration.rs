@@ -45,6 +45,7 @@
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
 //! the correction; on background frames ten cross-products per peak and one band's solution.
 
+use crate::noise_floor::{NoiseFloor, NoiseGate};
 use crate::power_ramp::power_ratio_from_db;
 use crate::{CARDIOIDS, NUM_BINS};
 use microfft::Complex32;
@@ -211,10 +212,12 @@ struct BandSums {
     plane: [f32; 5],
 }
 
+/// sin 120° = √3/2.
+const H: f32 = 0.866_025_4;
+
 /// Plane coordinates (x, y) of a zero-mean per-cardioid vector v_m = x cos φ_m + y sin φ_m.
 fn to_plane(v: [f32; CARDIOIDS]) -> [f32; 2] {
     // cos φ_m = 1, −½, −½; sin φ_m = 0, √3/2, −√3/2; x = ⅔Σ v_m cos φ_m, y = ⅔Σ v_m sin φ_m.
-    const H: f32 = 0.866_025_4;
     [
         (2.0 / 3.0) * (v[0] - 0.5 * (v[1] + v[2])),
         (2.0 / 3.0) * H * (v[1] - v[2]),
@@ -223,7 +226,6 @@ fn to_plane(v: [f32; CARDIOIDS]) -> [f32; 2] {
 
 /// The per-cardioid vector of plane coordinates `z` (inverse of [`to_plane`] on zero-mean vectors).
 fn from_plane(z: [f32; 2]) -> [f32; CARDIOIDS] {
-    const H: f32 = 0.866_025_4;
     [z[0], -0.5 * z[0] + H * z[1], -0.5 * z[0] - H * z[1]]
 }
 
@@ -317,9 +319,11 @@ impl BandSums {
         }
     }
 
-    /// The normalised cross-powers R_mn / √(R_mm·R_nn) of the pairs (0,1), (0,2), (1,2) (−½ each in
-    /// a diffuse field), or `None` without usable sums.
-    fn correlations(&self) -> Option<[f32; 3]> {
+    /// The omni parts a = Σ Re(X_m W*)/Σ|W|² and the residual cross-powers R_mn = Σ Re(X_m X_n*)/Σ|W|²
+    /// − a_m·a_n: the diagonal (0,0), (1,1), (2,2) and the pairs (0,1), (0,2), (1,2); `None` without
+    /// omni power or with a diagonal that is not positive.
+    #[allow(clippy::type_complexity)]
+    fn residuals(&self) -> Option<([f32; CARDIOIDS], [f32; 3], [f32; 3])> {
         if !(self.ww > 0.0) {
             return None;
         }
@@ -327,14 +331,19 @@ impl BandSums {
         let a = self.xw.map(|v| v * inv);
         let r = |k: usize, i: usize, j: usize| self.xx[k] * inv - a[i] * a[j];
         let diag = [r(0, 0, 0), r(1, 1, 1), r(2, 2, 2)];
-        if !diag.iter().all(|v| *v > 0.0) {
-            return None;
-        }
+        let off = [r(3, 0, 1), r(4, 0, 2), r(5, 1, 2)];
+        diag.iter().all(|v| *v > 0.0).then_some((a, diag, off))
+    }
+
+    /// The normalised cross-powers R_mn / √(R_mm·R_nn) of the pairs (0,1), (0,2), (1,2) (−½ each in
+    /// a diffuse field), or `None` without usable sums.
+    fn correlations(&self) -> Option<[f32; 3]> {
+        let (_, diag, off) = self.residuals()?;
         let sq = crate::fast_math::sqrtf;
         let rho = [
-            r(3, 0, 1) / sq(diag[0] * diag[1]),
-            r(4, 0, 2) / sq(diag[0] * diag[2]),
-            r(5, 1, 2) / sq(diag[1] * diag[2]),
+            off[0] / sq(diag[0] * diag[1]),
+            off[1] / sq(diag[0] * diag[2]),
+            off[2] / sq(diag[1] * diag[2]),
         ];
         rho.iter().all(|v| v.is_finite()).then_some(rho)
     }
@@ -354,17 +363,13 @@ impl BandSums {
     /// The model of these sums, or `None` when they do not describe a plausible cardioid in a
     /// diffuse field.
     fn solve(&self) -> Option<BandModel> {
-        if !(self.ww > 0.0) || !(self.n > 0.0) {
+        if !(self.n > 0.0) {
             return None;
         }
-        let inv = 1.0 / self.ww;
-        let a = self.xw.map(|v| v * inv);
-        let r = |k: usize, i: usize, j: usize| self.xx[k] * inv - a[i] * a[j];
-        let diag = [r(0, 0, 0), r(1, 1, 1), r(2, 2, 2)];
-        let off = [r(3, 0, 1), r(4, 0, 2), r(5, 1, 2)];
+        let (a, _, off) = self.residuals()?;
         // b_i·b_j = −2·R_ij/κ.
         let p = off.map(|v| -2.0 * v / KAPPA);
-        if !p.iter().all(|v| *v > 0.0) || !diag.iter().all(|v| *v > 0.0) {
+        if !p.iter().all(|v| *v > 0.0) {
             return None;
         }
         let sq = crate::fast_math::sqrtf;
@@ -457,16 +462,16 @@ pub struct CapsuleCalibrationState {
     frame_used: bool,
     /// Bins [start, end) of each band.
     band_bins: [(u16, u16); CAL_BANDS],
-    /// Tracked background power of each band (NaN before the first frame).
-    band_floor: [f32; CAL_BANDS],
+    /// Tracked background power of each band.
+    band_floor: [NoiseFloor; CAL_BANDS],
     /// This frame's power of each band.
     band_power: [f32; CAL_BANDS],
     /// Whether this frame is background in each band.
     band_background: [bool; CAL_BANDS],
     /// Recent share of all-background frames whose curve pointed somewhere.
     directional_share: f32,
-    /// Largest rise of a band floor per frame (power ratio).
-    floor_rise: f32,
+    /// A band floor before its first frame (its rise per frame set), for resets.
+    fresh_floor: NoiseFloor,
     /// Band power over its floor up to which the band is background (power ratio).
     background_ratio: f32,
     accepted: CapsuleEstimate,
@@ -504,11 +509,11 @@ impl CapsuleCalibrationState {
             frame: [BandSums::ZERO; CAL_BANDS],
             frame_used: false,
             band_bins: [(0, 0); CAL_BANDS],
-            band_floor: [f32::NAN; CAL_BANDS],
+            band_floor: [NoiseFloor::idle(); CAL_BANDS],
             band_power: [0.0; CAL_BANDS],
             band_background: [false; CAL_BANDS],
             directional_share: 0.0,
-            floor_rise: 1.0,
+            fresh_floor: NoiseFloor::idle(),
             background_ratio: 1.0,
             accepted: CapsuleEstimate::IDEAL,
             correction: [Correction::IDENTITY; CAL_BANDS],
@@ -540,7 +545,12 @@ impl CapsuleCalibrationState {
                 .unwrap_or(NUM_BINS);
             *range = (start as u16, end as u16);
         }
-        s.floor_rise = power_ratio_from_db(FLOOR_RISE_DB_PER_S / frames_per_s);
+        let gate = NoiseGate {
+            enabled: true,
+            rise_db_per_s: FLOOR_RISE_DB_PER_S,
+            ..NoiseGate::OFF
+        };
+        s.fresh_floor = NoiseFloor::new(&gate, frames_per_s);
         s.background_ratio = power_ratio_from_db(settings.background_db);
         s.forget = 1.0 - 1.0 / settings.memory_frames;
         s.restore(start);
@@ -560,7 +570,7 @@ impl CapsuleCalibrationState {
         }
         self.frame = [BandSums::ZERO; CAL_BANDS];
         self.frame_used = false;
-        self.band_floor = [f32::NAN; CAL_BANDS];
+        self.band_floor = [self.fresh_floor; CAL_BANDS];
         self.band_background = [false; CAL_BANDS];
         self.directional_share = 0.0;
         self.batch = [BandSums::ZERO; CAL_BANDS];
@@ -614,13 +624,9 @@ impl CapsuleCalibrationState {
             if !(p > 0.0) || !p.is_finite() {
                 continue;
             }
-            let risen = self.band_floor[b] * self.floor_rise;
-            self.band_floor[b] = if p < risen || !risen.is_finite() {
-                p
-            } else {
-                risen
-            };
-            self.band_background[b] = clean && p <= self.band_floor[b] * self.background_ratio;
+            self.band_floor[b].update(p);
+            self.band_background[b] =
+                clean && p <= self.band_floor[b].floor() * self.background_ratio;
         }
     }
 

@@ -43,7 +43,7 @@ impl NoiseGate {
 }
 
 /// The floor's state, with the per-frame constants of a [`NoiseGate`] at one frame rate.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct NoiseFloor {
     floor: f32,
     rise: f32,
