@@ -62,11 +62,13 @@ def positions(rng):
             return rx, src
 
 
-def ambix_rir(rx, src):
-    """First-order AmbiX (ACN, SN3D) response from `src` to `rx`, peak-normalised, and the direct
-    sound's azimuth in degrees [0, 360)."""
-    e_abs, max_order = pra.inverse_sabine(RT60, DIMS)
-    room = pra.ShoeBox(DIMS, fs=FS, materials=pra.Material(e_abs), max_order=max_order)
+def image_source_ambix(dims, rt60, rx, src, divisor):
+    """First-order AmbiX (ACN W, Y, Z, X; SN3D) response of RIR_SECONDS from `src` to `rx` in a
+    shoebox `dims` of reverberation time `rt60`, from the image sources of pyroomacoustics (delay,
+    gain and direction of each image; fractional delays by a Hann-windowed sinc). An image at
+    distance r has the gain damping / divisor(r); not normalised."""
+    e_abs, max_order = pra.inverse_sabine(rt60, dims)
+    room = pra.ShoeBox(dims, fs=FS, materials=pra.Material(e_abs), max_order=max_order)
     room.add_source(src)
     room.add_microphone(rx)
     room.image_source_model()
@@ -77,7 +79,7 @@ def ambix_rir(rx, src):
     length = int(RIR_SECONDS * FS)
     t = r / SPEED_OF_SOUND * FS
     keep = t < length - HALF_TAPS - 1
-    d, r, t, gain = d[:, keep], r[keep], t[keep], damping[keep] / (4.0 * np.pi * r[keep])
+    d, r, t, gain = d[:, keep], r[keep], t[keep], damping[keep] / divisor(r[keep])
     u = d / r
     encode = np.stack([np.ones_like(r), u[1], u[2], u[0]])
     n0 = np.floor(t).astype(int)
@@ -87,9 +89,15 @@ def ambix_rir(rx, src):
     index = (n0[:, None] + k[None, :]).ravel()
     h = np.zeros((length, 4))
     for c in range(4):
-        h[:, c] = np.bincount(index, weights=(taps * encode[c][:, None]).ravel(), minlength=length)[
-            :length
-        ]
+        h[:, c] = np.bincount(index, weights=(taps * encode[c][:, None]).ravel(),
+                              minlength=length + HALF_TAPS + 1)[:length]
+    return h
+
+
+def ambix_rir(rx, src):
+    """First-order AmbiX (ACN, SN3D) response from `src` to `rx`, peak-normalised, and the direct
+    sound's azimuth in degrees [0, 360)."""
+    h = image_source_ambix(DIMS, RT60, rx, src, lambda r: 4.0 * np.pi * r)
     h /= np.max(np.abs(h)) * 1.01
     direct = src - rx
     return h.astype(np.float32), float(np.degrees(np.arctan2(direct[1], direct[0])) % 360.0)

@@ -10,27 +10,15 @@ Needs a release build of host-sim (cargo build --release -p host-sim).
 """
 
 import argparse
-import json
 import os
-import subprocess
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HS = os.environ.get("HS", os.path.join(ROOT, "target", "release", "host-sim"))
+from selfcal_report import ROOT, evaluate
+
 CONFIGS = [
     ("default", []),
     ("thesis preset", ["--preset", "thesis"]),
     ("FDIV baseline", ["--method", "fdiv"]),
 ]
-
-
-def evaluate(folder, flags):
-    out = subprocess.run(
-        [HS, "eval", folder, "--json", "--threads", "2"] + flags,
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout
-    return {s["set"]: s["settled"] for s in json.loads(out)["sets"]}
 
 
 def main():
@@ -53,8 +41,8 @@ def main():
         for _, folder, s in columns:
             if folder not in cache:
                 cache[folder] = evaluate(folder, flags)
-            r = cache[folder][s]
-            cells.append(f"{r['acc'][9]:.1f} / {r['mae']:.2f}")
+            acc10, mae, _ = cache[folder][s]
+            cells.append(f"{acc10:.1f} / {mae:.2f}")
         rows.append(f"| {label} | " + " | ".join(cells) + " |")
     block = [
         "<!-- results:begin (written by scripts/results.py; do not edit by hand) -->",

@@ -64,15 +64,13 @@ import pyroomacoustics as pra
 import scipy.io.wavfile as wavfile
 from scipy.signal import fftconvolve
 
+from ism_validation import FS, image_source_ambix, wrap180
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HOST_SIM = os.environ.get("HS", "/tmp/hs-scene")
 SPEECH = os.environ.get("SPEECH", os.path.join(ROOT, "..", "shared", "data", "src", "speech"))
-FS = 16000
 LEAD_S = 0.25
 PEAK_DBFS = -3.0
-RIR_SECONDS = 0.8
-HALF_TAPS = 20
-SPEED_OF_SOUND = 343.0
 DRIFT_CORNER_HZ = 500.0
 PLACES = 10
 PLACE_S = 10.0
@@ -92,10 +90,6 @@ def draw_room(rng):
     rx = np.array([rng.uniform(1.0, dims[0] - 1.0), rng.uniform(1.0, dims[1] - 1.0),
                    rng.uniform(1.2, 1.6)])
     return {"dims": dims, "rt60": rt60, "rx": rx}
-
-
-def wrap180(a):
-    return (a + 180.0) % 360.0 - 180.0
 
 
 def draw_place(rng, room, away_from=(), min_sep=MIN_STEP_DEG):
@@ -118,35 +112,12 @@ def draw_place(rng, room, away_from=(), min_sep=MIN_STEP_DEG):
 
 
 def ambix_rir(room, src):
-    """First-order AmbiX (ACN W, Y, Z, X; SN3D) response from `src` to the array, from the image
-    sources of pyroomacoustics (delay, gain and direction of each image; fractional delays by a
-    Hann-windowed sinc). Physical gain: the direct sound has amplitude 1/r (r in metres)."""
-    dims, rx = room["dims"], room["rx"]
-    e_abs, max_order = pra.inverse_sabine(room["rt60"], dims)
-    shoebox = pra.ShoeBox(dims, fs=FS, materials=pra.Material(e_abs), max_order=max_order)
-    shoebox.add_source(src)
-    shoebox.add_microphone(rx)
-    shoebox.image_source_model()
-    images = shoebox.sources[0].images
-    damping = shoebox.sources[0].damping[0]
-    d = images - rx[:, None]
-    r = np.linalg.norm(d, axis=0)
-    length = int(RIR_SECONDS * FS)
-    t = r / SPEED_OF_SOUND * FS
-    keep = t < length - HALF_TAPS - 1
-    d, r, t, gain = d[:, keep], r[keep], t[keep], damping[keep] / r[keep]
-    u = d / r
-    encode = np.stack([np.ones_like(r), u[1], u[2], u[0]])
-    n0 = np.floor(t).astype(int)
-    k = np.arange(-HALF_TAPS, HALF_TAPS + 1)
-    x = k[None, :] - (t - n0)[:, None]
-    taps = np.sinc(x) * (0.5 + 0.5 * np.cos(np.pi * x / (HALF_TAPS + 1))) * gain[:, None]
-    index = (n0[:, None] + k[None, :]).ravel()
-    h = np.zeros((length, 4))
-    for c in range(4):
-        h[:, c] = np.bincount(index, weights=(taps * encode[c][:, None]).ravel(),
-                              minlength=length + HALF_TAPS + 1)[:length]
-    return h.astype(np.float32)
+    """First-order AmbiX (ACN W, Y, Z, X; SN3D) response from `src` to the array (the image-source
+    rendering of scripts/ism_validation.py). Physical gain: the direct sound has amplitude 1/r (r in
+    metres)."""
+    return image_source_ambix(room["dims"], room["rt60"], room["rx"], src, lambda r: r).astype(
+        np.float32
+    )
 
 
 # ---------------------------------------------------------------- sources
