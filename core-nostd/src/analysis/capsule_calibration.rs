@@ -99,7 +99,7 @@ impl CapsuleCalibration {
         adapt: true,
         background_db: 3.0,
         directional_reliability: 0.5,
-        memory_frames: 3000.0,
+        memory_frames: 10_000.0,
         shrinkage: 0.35,
         max_anisotropy: 0.05,
     };
