@@ -15,11 +15,14 @@
 //!
 //! DMA: SPI2_RX on DMA1 stream 3, SPI3_RX on DMA1 stream 0, USART1_TX on DMA2 stream 7.
 //!
-//! A port to another part (e.g. an STM32F446 with one 4-channel TDM ADC on SAI) replaces this module:
-//! [`init`] must return an [`AudioIn`] whose `read` fills sample frames in the core's channel order, a
-//! [`FrameTx`] and a [`Watchdog`].
+//! It implements the board interface of [`cma_firmware::board_api`] for the application
+//! (`src/app.rs`); another board (e.g. the emulated one in `src/board_mps2.rs`, or an STM32F446 with
+//! one 4-channel TDM ADC on SAI) provides the same items: [`init`] returning an [`AudioIn`]
+//! ([`SampleSource`]), a [`FrameTx`] ([`FrameWriter`]) and a [`Watchdog`], and the constants
+//! [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
 
 use cma_core::CHANNELS;
+use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
 use embassy_stm32::i2s::{self, I2S};
 use embassy_stm32::mode::Async;
@@ -89,10 +92,6 @@ fn clock_config() -> Config {
     config
 }
 
-/// The capture overran: samples were lost. The streams have been realigned when this is returned.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub struct Overrun;
-
 /// The four capsules: two I2S receivers on shared bit and word clocks (I2S2 master, I2S3 slave).
 pub struct AudioIn {
     a: I2S<'static, u16>,
@@ -101,9 +100,9 @@ pub struct AudioIn {
     words_b: [u16; BLOCK_WORDS],
 }
 
-impl AudioIn {
+impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// Starts capturing: the slave first, so that it sees the master's first word-select edge.
-    pub fn start(&mut self) {
+    fn start(&mut self) {
         self.b.start();
         self.a.start();
     }
@@ -113,7 +112,7 @@ impl AudioIn {
     ///
     /// On a DMA overrun of either receiver both are stopped and restarted together, so the four
     /// channels are sample-aligned again, and [`Overrun`] is returned; `out` is then not written.
-    pub async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
+    async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
         let (ra, rb) = embassy_futures::join::join(
             self.a.read(&mut self.words_a),
             self.b.read(&mut self.words_b),
@@ -126,7 +125,9 @@ impl AudioIn {
         interleave_stereo_pairs(&self.words_a, &self.words_b, out);
         Ok(())
     }
+}
 
+impl AudioIn {
     async fn resync(&mut self) {
         // Stopping the master first stops the shared clocks; the slave then restarts in step with it.
         self.a.stop().await;
@@ -136,10 +137,29 @@ impl AudioIn {
 }
 
 /// The frame-stream UART (transmit only, DMA).
-pub type FrameTx = UartTx<'static, Async>;
+pub struct FrameTx(UartTx<'static, Async>);
+
+impl FrameWriter for FrameTx {
+    async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+        self.0.write(bytes).await.map_err(|e| {
+            defmt::warn!("USART1: {}", e);
+            WriteError
+        })
+    }
+}
 
 /// The independent watchdog.
-pub type Watchdog = IndependentWatchdog<'static, peripherals::IWDG>;
+pub struct Watchdog(IndependentWatchdog<'static, peripherals::IWDG>);
+
+impl board_api::Watchdog for Watchdog {
+    fn unleash(&mut self) {
+        self.0.unleash();
+    }
+
+    fn pet(&mut self) {
+        self.0.pet();
+    }
+}
 
 /// The board's drivers, ready to be moved into tasks.
 pub struct Board {
@@ -192,7 +212,7 @@ pub fn init() -> Board {
     // Note(unwrap): 115200 baud from a 100 MHz APB2 is always reachable.
     let uart = UartTx::new(p.USART1, p.PA9, p.DMA2_CH7, Irqs, uart_cfg).unwrap();
 
-    let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
+    let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
 
     Board {
         audio: AudioIn {
@@ -201,7 +221,7 @@ pub fn init() -> Board {
             words_a: [0; BLOCK_WORDS],
             words_b: [0; BLOCK_WORDS],
         },
-        uart,
+        uart: FrameTx(uart),
         watchdog,
     }
 }
