@@ -8,6 +8,9 @@
 //! | watchdog          | CMSDK APB watchdog (0x4000_8000, WDOGCLK = 25 MHz), reset enabled        |
 //! | time              | SysTick (processor clock) as the `embassy-time` driver, 100 µs ticks     |
 //!
+//! The executor is embassy's, run by [`run_executor`], whose idle loop sleeps with `WFI`: QEMU
+//! treats `WFE` (what embassy's thread-mode executor uses) as a no-op, so that loop would spin.
+//!
 //! The capture behaves like the F411's DMA rings: block `k` is complete when the clock reaches
 //! `(k + 1) · BLOCK_FRAMES` sample frames after the start, and if the DSP task asks for a block
 //! the ring ([`RING_FRAMES`]) has already overwritten, the samples in between are lost, the
@@ -29,8 +32,11 @@ use cma_firmware::emulated::{
     STATE_ADDR, UART_STALL_FROM_US, UART_STALL_US,
 };
 use cma_firmware::wav::{self, WavFormat};
+use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m_semihosting::{debug, hprintln};
+use embassy_executor::{raw, Spawner};
 use embassy_time::{Duration, Instant, Timer};
+use static_cell::StaticCell;
 
 /// Input sample rate, Hz (the WAV must have it).
 pub const SAMPLE_RATE_HZ: u32 = 48_000;
@@ -42,6 +48,35 @@ pub const BLOCK_FRAMES: usize = 32;
 pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
 /// Watchdog timeout, µs, as on the STM32F411CE board.
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+
+/// Set by the executor's pender (a task was woken), cleared by [`run_executor`] before it sleeps.
+static PENDED: AtomicBool = AtomicBool::new(false);
+
+// Note(unsafe): the pender symbol the raw executor calls when a task is woken (any context).
+#[allow(unsafe_code)]
+#[export_name = "__pender"]
+fn pender(_context: *mut ()) {
+    PENDED.store(true, Ordering::Release);
+}
+
+/// Runs embassy's raw executor: `init` spawns the first task, then the loop polls whenever a task
+/// was woken and otherwise sleeps with `WFI` until an interrupt (SysTick at least every 100 µs).
+pub fn run_executor(init: impl FnOnce(Spawner)) -> ! {
+    static EXECUTOR: StaticCell<raw::Executor> = StaticCell::new();
+    let executor: &'static raw::Executor = EXECUTOR.init(raw::Executor::new(core::ptr::null_mut()));
+    init(executor.spawner());
+    loop {
+        // Note(unsafe): `poll` is called only here, never re-entrantly (the pender only sets a flag).
+        unsafe { executor.poll() };
+        // With interrupts masked, a wake-up between the check and `WFI` still ends the sleep (the
+        // pending interrupt wakes the core and is taken after `free`).
+        cortex_m::interrupt::free(|_| {
+            if !PENDED.swap(false, Ordering::AcqRel) {
+                cortex_m::asm::wfi();
+            }
+        });
+    }
+}
 
 /// The system clock of the mps2-an386 (SysTick's processor clock, the watchdog's WDOGCLK).
 const SYSCLK_HZ: u32 = 25_000_000;

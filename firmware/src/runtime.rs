@@ -1,7 +1,7 @@
 //! Runtime glue, the same for every board: defmt over RTT, a panic handler that logs the panic with
 //! defmt and then faults (with a probe attached the debugger stops there; without one the HardFault
-//! loop is ended by the watchdog, which resets the board), defmt timestamps, and the embassy entry
-//! point that starts the application.
+//! loop is ended by the watchdog, which resets the board), defmt timestamps, and the entry point
+//! that starts the application on embassy's executor.
 
 use defmt_rtt as _;
 use panic_probe as _;
@@ -17,7 +17,24 @@ fn defmt_panic() -> ! {
     cortex_m::asm::udf()
 }
 
+/// STM32F411CE: embassy's thread-mode executor (sleeps with `WFE`).
+#[cfg(feature = "board-f411")]
 #[embassy_executor::main]
 async fn main(spawner: embassy_executor::Spawner) {
+    crate::app::run(spawner).await;
+}
+
+/// Emulated board: the same executor in the board's loop (sleeps with `WFI`, which QEMU emulates
+/// as a halt; it treats `WFE` as a no-op, so embassy's loop would spin).
+#[cfg(feature = "board-mps2")]
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    crate::board::run_executor(|spawner| spawner.spawn(start(spawner).unwrap()))
+}
+
+/// Starts the application.
+#[cfg(feature = "board-mps2")]
+#[embassy_executor::task]
+async fn start(spawner: embassy_executor::Spawner) {
     crate::app::run(spawner).await;
 }
