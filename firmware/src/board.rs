@@ -23,7 +23,7 @@
 
 use cma_core::CHANNELS;
 use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
-use cma_firmware::i2s_align::{align, check_padding, StreamPosition};
+use cma_firmware::i2s_align::{align, channel_matches, StreamPosition};
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
 use embassy_stm32::i2s::{self, I2S};
 use embassy_stm32::mode::Async;
@@ -117,9 +117,10 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
     /// channel order (omni, card 0°, card 120°, card 240°).
     ///
-    /// On a DMA overrun of either receiver, or when a block's padding shows a stream that slipped
-    /// ([`check_padding`]), both receivers are stopped (I2SE cleared) and restarted in step
-    /// ([`AudioIn::resync`]), and [`Overrun`] is returned; `out` is then not written.
+    /// On a DMA overrun of either receiver, or when a stream's channel side does not match its
+    /// position ([`AudioIn::channels_in_place`]), both receivers are stopped (I2SE cleared) and
+    /// restarted in step ([`AudioIn::resync`]), and [`Overrun`] is returned; `out` is then not
+    /// written.
     async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
         if !self.aligned {
             if !(self.started && self.discard_to_common_frame().await) {
@@ -133,11 +134,7 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
             self.b.read(&mut self.words_b),
         )
         .await;
-        let slipped = check_padding(&self.words_a).or(check_padding(&self.words_b));
-        if ra.is_err() || rb.is_err() || slipped.is_err() {
-            if let Err(e) = slipped {
-                defmt::warn!("I2S stream misaligned ({}): restarting", e);
-            }
+        if ra.is_err() || rb.is_err() || !Self::channels_in_place() {
             self.resync().await;
             return Err(Overrun);
         }
@@ -176,7 +173,38 @@ fn dma_received(n: usize) -> usize {
     RING_WORDS - usize::from(pac::DMA1.st(n).ndtr().read().ndt())
 }
 
+/// Waits (at most [`WS_POLLS`] polls, ≥ one halfword time) for DMA1 stream `n` to move a
+/// halfword from `spi`, then reads the channel side of that halfword: `(position in the ring, right
+/// channel)`; `None` if nothing moved or another halfword came in between.
+fn channel_snapshot(n: usize, spi: pac::spi::Spi) -> Option<(usize, bool)> {
+    cortex_m::interrupt::free(|_| {
+        let before = pac::DMA1.st(n).ndtr().read().ndt();
+        let moved = (0..WS_POLLS)
+            .map(|_| pac::DMA1.st(n).ndtr().read().ndt())
+            .find(|&ndt| ndt != before)?;
+        let right = spi.sr().read().chside() == pac::spi::vals::Chside::RIGHT;
+        // The next halfword is ≈ 5 µs away: a change here means the reading straddled it.
+        (pac::DMA1.st(n).ndtr().read().ndt() == moved)
+            .then(|| ((RING_WORDS - usize::from(moved)) % RING_WORDS, right))
+    })
+}
+
 impl AudioIn {
+    /// Whether both streams' channel sides match their ring positions ([`channel_matches`]): ring
+    /// position 0 is a frame start for both after a restart in step.
+    fn channels_in_place() -> bool {
+        [(3, pac::SPI2), (0, pac::SPI3)]
+            .into_iter()
+            .all(|(n, spi)| {
+                let ok =
+                    channel_snapshot(n, spi).is_some_and(|(at, right)| channel_matches(at, right));
+                if !ok {
+                    defmt::warn!("I2S stream on DMA1 stream {} out of step: restarting", n);
+                }
+                ok
+            })
+    }
+
     /// Stops both receivers for real and restarts them in step, until that succeeds
     /// ([`RESYNC_ATTEMPTS`]; after that the DSP task stops petting the watchdog).
     async fn resync(&mut self) {

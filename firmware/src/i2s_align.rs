@@ -9,12 +9,15 @@
 //!   frame on the wires (the same for both ADCs: they share BCK and WS) is `phase` halfwords in.
 //!   [`align`] turns the two positions into the halfwords each stream must discard so that both
 //!   continue at the start of the same frame;
-//! * **padding**: with 24-bit data in 32-bit slots the peripheral delivers each sample's second
-//!   halfword with its low byte 0. [`check_padding`] finds a stream that slipped by a halfword (a
-//!   low byte that should be padding is not 0), which the board answers with a restart.
+//! * **channel side**: the peripheral reports the channel of the halfword it received last
+//!   (SPI_SR.CHSIDE). [`channel_matches`] compares it with the channel a frame-aligned stream has
+//!   at that position: a stream off by a channel (left ↔ right) fails at every position, one off by
+//!   a halfword at every other position, and the board restarts it.
 //!
-//! A swap of left and right by a whole channel slot keeps the padding in place and cannot be seen
-//! in the data; it is excluded by the positions, which must put both streams at the same phase.
+//! The data cannot show a misalignment by itself: the low byte of a sample's second halfword
+//! (the 8 bits after the 24-bit code) is not defined by the peripheral (the reference manual's
+//! 24-bit reception figure: "8 LSBs have no meaning and can be anything"), and both channels of an
+//! ADC carry the same kind of signal.
 
 use crate::sample::WORDS_PER_STEREO_FRAME;
 
@@ -40,18 +43,12 @@ impl StreamPosition {
     }
 }
 
-/// The streams cannot be aligned, or slipped: the receivers must be restarted.
+/// The streams cannot be aligned: the receivers must be restarted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum Misaligned {
     /// A position's phase is not within a frame (≥ 4).
     BadPhase,
-    /// A padding byte (the low byte of a sample's second halfword) is not 0 at this halfword of
-    /// the checked block: the stream is a halfword off.
-    Padding {
-        /// Index of the halfword in the block.
-        at: usize,
-    },
 }
 
 /// Halfwords to discard from streams `a` and `b` (in that order) so that both continue at the
@@ -73,19 +70,14 @@ pub fn align(a: StreamPosition, b: StreamPosition) -> Result<(usize, usize), Mis
     Ok(((start_a - back * W) as usize, (start_b - back * W) as usize))
 }
 
-/// Checks the padding of a block that should start at a frame start: the low byte of every
-/// sample's second halfword must be 0.
-pub fn check_padding(words: &[u16]) -> Result<(), Misaligned> {
-    match words
-        .iter()
-        .enumerate()
-        .skip(1)
-        .step_by(2)
-        .find(|(_, w)| **w & 0x00FF != 0)
-    {
-        Some((at, _)) => Err(Misaligned::Padding { at }),
-        None => Ok(()),
-    }
+/// Whether `right` (SPI_SR.CHSIDE after the DMA moved the `received`-th halfword of a stream) is
+/// the channel of that halfword in a stream that started at a frame start: halfword `k` (from 0)
+/// is left for `k mod 4` ∈ {0, 1} and right for {2, 3}. `received` may be counted modulo any
+/// multiple of 4 (a ring's length); 0 stands for a multiple of 4 ≥ 4.
+#[must_use]
+pub const fn channel_matches(received: usize, right: bool) -> bool {
+    let last = (received + WORDS_PER_STEREO_FRAME - 1) % WORDS_PER_STEREO_FRAME;
+    (last >= 2) == right
 }
 
 #[cfg(test)]
@@ -95,13 +87,13 @@ mod tests {
     use cma_core::CHANNELS;
     use std::{vec, vec::Vec};
 
-    /// The halfwords of 24-bit `code` in a 32-bit slot (second halfword's low byte 0).
+    /// The halfwords of 24-bit `code` in a 32-bit slot.
     fn halves(code24: i32) -> [u16; 2] {
         let v = (code24 << 8) as u32;
         [(v >> 16) as u16, (v & 0xFFFF) as u16]
     }
 
-    /// A distinct 24-bit code per frame and channel (low bytes non-zero, so a slip shows).
+    /// A distinct 24-bit code per frame and channel (so a frame or channel mix-up shows).
     fn code(frame: usize, channel: usize) -> i32 {
         let v = (frame as i32 * 7919 + channel as i32 * 104_729 + 0x1357) & 0x7F_FFFF;
         v - 0x40_0000
@@ -144,8 +136,6 @@ mod tests {
                     assert_eq!(start_a + skip_a, 4 * first, "a from {start_a}");
                     assert_eq!(start_b + skip_b, 4 * first, "b from {start_b}");
                     let (a, b) = (&a[skip_a..], &b[skip_b..]);
-                    check_padding(a).unwrap();
-                    check_padding(b).unwrap();
                     let n = a.len().min(b.len()) / 4;
                     let mut out = vec![[0.0f32; CHANNELS]; n];
                     interleave_stereo_pairs(a, b, &mut out);
@@ -186,15 +176,30 @@ mod tests {
         );
     }
 
+    /// The channel of wire halfword `k` of a stream (left for the first two of each frame).
+    fn right_at(k: usize) -> bool {
+        k % 4 >= 2
+    }
+
     #[test]
-    fn a_halfword_slip_is_detected() {
-        let s = stream(0, 50);
-        check_padding(&s).unwrap();
-        for slip in [1, 3] {
-            let e = check_padding(&s[slip..]).unwrap_err();
-            assert!(matches!(e, Misaligned::Padding { at } if at % 2 == 1));
+    fn channel_side_finds_streams_off_by_a_channel_or_a_halfword() {
+        for start in 0..8 {
+            // A ring that began `start` halfwords into the stream (the `received`-th halfword of
+            // the ring is wire halfword `start + received - 1`).
+            let matches: Vec<bool> = (1..64)
+                .map(|received| channel_matches(received, right_at(start + received - 1)))
+                .collect();
+            match start % 4 {
+                0 => assert!(matches.iter().all(|&m| m), "aligned from {start}"),
+                2 => assert!(matches.iter().all(|&m| !m), "left ↔ right from {start}"),
+                _ => assert!(
+                    matches.windows(2).all(|w| !(w[0] && w[1])),
+                    "a halfword off from {start}: found at least every other position"
+                ),
+            }
         }
-        // A whole-slot slip (left ↔ right) keeps the padding: only the positions exclude it.
-        check_padding(&s[2..]).unwrap();
+        // Counted modulo a ring's length.
+        assert!(channel_matches(0, true) && channel_matches(1024, true));
+        assert!(channel_matches(1025, false));
     }
 }

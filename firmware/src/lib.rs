@@ -3,7 +3,7 @@
 //! * [`board_api`] — the board interface the application is written against (sample blocks with
 //!   overrun reports, a frame writer, a watchdog);
 //! * [`i2s_align`] — frame and channel alignment of the two I2S receive streams after a (re)start,
-//!   and the padding check that finds a stream that slipped;
+//!   and the channel-side check that finds a stream that slipped;
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
 //! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
