@@ -118,7 +118,7 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// channel order (omni, card 0°, card 120°, card 240°).
     ///
     /// On a DMA overrun of either receiver, or when a stream's channel side does not match its
-    /// position ([`AudioIn::channels_in_place`]), both receivers are stopped (I2SE cleared) and
+    /// position ([`AudioIn::channels_in_place`]), both receivers are halted (I2SE cleared) and
     /// restarted in step ([`AudioIn::resync`]), and [`Overrun`] is returned; `out` is then not
     /// written.
     async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
@@ -148,7 +148,7 @@ const RESYNC_ATTEMPTS: u32 = 8;
 /// Polls of the word-select pin before a level is given up on (≥ 10 frames at 100 MHz).
 const WS_POLLS: u32 = 20_000;
 
-/// Clears I2SE, the enable bit of the I2S peripheral (the HAL's `stop` clears only SPE, which in
+/// Clears I2SE, the enable bit of the I2S peripheral (the HAL's `stop` method clears only SPE, which in
 /// I2S mode leaves the peripheral running), then the receive flags (OVR is cleared by reading DR,
 /// then SR).
 fn disable_i2s(regs: pac::spi::Spi) {
@@ -205,8 +205,8 @@ impl AudioIn {
             })
     }
 
-    /// Stops both receivers for real and restarts them in step, until that succeeds
-    /// ([`RESYNC_ATTEMPTS`]; after that the DSP task stops petting the watchdog).
+    /// Halts both receivers for real and restarts them in step, until that succeeds
+    /// ([`RESYNC_ATTEMPTS`]; after that the firmware panics and the watchdog resets the chip).
     async fn resync(&mut self) {
         for attempt in 1..=RESYNC_ATTEMPTS {
             self.a.stop().await;

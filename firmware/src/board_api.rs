@@ -4,7 +4,7 @@
 //! * a [`SampleSource`]: blocks of sample frames in the core's channel order (omni, cardioid 0°,
 //!   120°, 240°; full scale ±1), or an [`Overrun`] when samples were lost;
 //! * a [`FrameWriter`]: the byte stream of frame and calibration lines (a UART);
-//! * a [`Watchdog`] that resets the board when the DSP task stops petting it;
+//! * a [`Watchdog`] that resets the board when the DSP task no longer pets it;
 //! * time: an `embassy-time` driver (the application's defmt timestamps).
 //!
 //! The application (`src/app.rs`) uses only these traits and the board module's constants
@@ -48,7 +48,7 @@ pub trait FrameWriter {
 
 /// A watchdog that resets the board unless it is petted in time.
 pub trait Watchdog {
-    /// Starts the watchdog (it cannot be stopped again).
+    /// Starts the watchdog (it cannot be switched off again).
     fn unleash(&mut self);
     /// Restarts its timeout.
     fn pet(&mut self);

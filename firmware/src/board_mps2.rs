@@ -324,7 +324,7 @@ impl AudioIn {
         self.fault = Fault::None;
     }
 
-    /// The input is used up: stops the watchdog, lets the UART drain, exits QEMU with status 0.
+    /// The input is used up: disables the watchdog, lets the UART drain, exits QEMU with status 0.
     async fn finish(&mut self) -> ! {
         hprintln!(
             "mps2: end of input at frame {}",
@@ -474,7 +474,7 @@ mod watchdog_registers {
         unlocked(|| unsafe { core::ptr::write_volatile(INTCLR, 1) });
     }
 
-    /// Stops it resetting the system.
+    /// Keeps it from resetting the system.
     pub fn disable() {
         // Note(unsafe): as above.
         unlocked(|| unsafe { core::ptr::write_volatile(CONTROL, 0) });
