@@ -4,8 +4,9 @@
 //!   is parsed with the core's own parser into `OUT_DIR/stored_capsules.rs` (see
 //!   `src/stored_capsules.rs`); a bad file fails the build with the parser's message; without the
 //!   variable the start is the ideal capsule. For every target, so the host tests see it too.
-//! * link arguments, for the target only: `memory.x` found from any directory, cortex-m-rt's
-//!   `link.x`, defmt's `defmt.x`.
+//! * link arguments, for the target only: the board's memory layout as `memory.x` (`memory.x` for
+//!   the STM32F411CE, `memory-mps2.x` for the emulated board; the `board-*` feature selects it)
+//!   found from any directory, cortex-m-rt's `link.x`, defmt's `defmt.x`.
 
 use cma_core::capsule_calibration::{BandModel, CapsuleEstimate};
 use std::env;
@@ -15,13 +16,24 @@ use std::path::{Path, PathBuf};
 
 fn main() {
     println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=memory-mps2.x");
     println!("cargo:rerun-if-changed=build.rs");
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
     stored_capsules(&out);
     if env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("none") {
         return;
     }
-    fs::copy("memory.x", out.join("memory.x")).expect("copy memory.x");
+    let f411 = env::var_os("CARGO_FEATURE_BOARD_F411").is_some();
+    let mps2 = env::var_os("CARGO_FEATURE_BOARD_MPS2").is_some();
+    let layout = match (f411, mps2) {
+        (true, false) => "memory.x",
+        (false, true) => "memory-mps2.x",
+        _ => panic!(
+            "select exactly one board: the default features (board-f411) or \
+             `--no-default-features --features board-mps2`"
+        ),
+    };
+    fs::copy(layout, out.join("memory.x")).expect("copy the memory layout");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg-bins=--nmagic");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");

@@ -1,13 +1,18 @@
 //! The application: a DSP task (capture → core → estimates) and a UART task (estimates → frame lines,
-//! self-calibration snapshots → calibration lines).
+//! self-calibration snapshots → calibration lines), the same on every board.
 //!
 //! ```text
-//! I2S2 + I2S3 ─DMA rings─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─DMA─▶ USART1
-//!                              │ overruns counted,                │ full: line dropped, counted
-//!                              │ watchdog petted per block        │ one `$CMA,…` line per estimate,
-//!                              └ self-calibration snapshot at     └ one `$CAL,…` line per snapshot
-//!                                start and every 10 s
+//! board::AudioIn ─blocks─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─▶ board::FrameTx
+//!  (SampleSource)             │ overruns counted,                │ full: line dropped, counted
+//!                             │ watchdog petted per block        │ one `$CMA,…` line per estimate,
+//!                             └ self-calibration snapshot at     └ one `$CAL,…` line per snapshot
+//!                               start and every 10 s
 //! ```
+//!
+//! It sees the board only through the traits of [`cma_firmware::board_api`] and the board
+//! module's `init`, `SAMPLE_RATE_HZ` and `BLOCK_FRAMES`; each binary mounts its board as
+//! `crate::board` (`src/board.rs`: STM32F411CE with two I2S ADCs; `src/board_mps2.rs`: QEMU
+//! `mps2-an386`).
 //!
 //! The self-calibration starts from the estimate embedded at build time
 //! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it).
@@ -16,6 +21,7 @@ use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_H
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::wire::{self, CalibrationLine, CalibrationSchedule};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
+use cma_firmware::board_api::{FrameWriter, SampleSource, Watchdog as _};
 use cma_firmware::stats::Counters;
 use cma_firmware::stored_capsules;
 use embassy_executor::Spawner;
@@ -107,13 +113,13 @@ fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
 
 /// Captures blocks, runs the localizer, queues the estimates.
 ///
-/// Real-time contract: each call of `AudioIn::read` returns [`BLOCK_FRAMES`] sample frames (0.67 ms
-/// at 48 kHz); every 32nd block completes an analysis hop (1024 input samples, 21.3 ms), whose
-/// analysis must end before the DMA rings ([`board::RING_FRAMES`] = 256 sample frames, 5.3 ms) fill. When they do fill, the
-/// overrun is counted, both receivers are restarted in step and the count appears in the `ovr` field of
-/// the following frames; the localizer keeps its state (its sample clock then runs behind the input by
-/// the samples lost). Estimates never wait for the UART: when the queue is full they are dropped and
-/// counted in the `drop` field.
+/// Real-time contract: each call of `AudioIn::read` returns [`BLOCK_FRAMES`] sample frames; the
+/// blocks that complete an analysis hop (1024 input samples, 21.3 ms at 48 kHz) carry its analysis,
+/// which must end before the board's capture ring (`board::RING_FRAMES`) fills. When it does fill,
+/// the board realigns the capture and reports an overrun, which is counted and appears in the `ovr`
+/// field of the following frames; the localizer keeps its state (its sample clock then runs behind
+/// the input by the samples lost). Estimates never wait for the UART: when the queue is full they
+/// are dropped and counted in the `drop` field.
 ///
 /// Before the first block and then after the first estimate at least
 /// [`wire::CALIBRATION_PERIOD_S`] seconds after the previous one ([`CalibrationSchedule`]), the
@@ -136,7 +142,7 @@ async fn dsp_task(
         watchdog.pet();
         if audio.read(&mut block).await.is_err() {
             COUNTERS.count_overrun();
-            defmt::warn!("I2S overrun #{}: capture realigned", COUNTERS.overruns());
+            defmt::warn!("capture overrun #{}: realigned", COUNTERS.overruns());
             continue;
         }
         let mut calibration_due = None;

@@ -15,18 +15,22 @@
 //!
 //! DMA: SPI2_RX on DMA1 stream 3, SPI3_RX on DMA1 stream 0, USART1_TX on DMA2 stream 7.
 //!
-//! A port to another part (e.g. an STM32F446 with one 4-channel TDM ADC on SAI) replaces this module:
-//! [`init`] must return an [`AudioIn`] whose `read` fills sample frames in the core's channel order, a
-//! [`FrameTx`] and a [`Watchdog`].
+//! It implements the board interface of [`cma_firmware::board_api`] for the application
+//! (`src/app.rs`); another board (e.g. the emulated one in `src/board_mps2.rs`, or an STM32F446 with
+//! one 4-channel TDM ADC on SAI) provides the same items: [`init`] returning an [`AudioIn`]
+//! ([`SampleSource`]), a [`FrameTx`] ([`FrameWriter`]) and a [`Watchdog`], and the constants
+//! [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
 
 use cma_core::CHANNELS;
+use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
+use cma_firmware::i2s_align::{align, channel_matches, StreamPosition};
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
 use embassy_stm32::i2s::{self, I2S};
 use embassy_stm32::mode::Async;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
-use embassy_stm32::{bind_interrupts, dma, peripherals, rcc, Config};
+use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
 /// Input sample rate, Hz (the ADCs' LRCK).
@@ -89,57 +93,216 @@ fn clock_config() -> Config {
     config
 }
 
-/// The capture overran: samples were lost. The streams have been realigned when this is returned.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub struct Overrun;
-
 /// The four capsules: two I2S receivers on shared bit and word clocks (I2S2 master, I2S3 slave).
 pub struct AudioIn {
     a: I2S<'static, u16>,
     b: I2S<'static, u16>,
     words_a: [u16; BLOCK_WORDS],
     words_b: [u16; BLOCK_WORDS],
+    /// Both receivers were (re)started, master first and the slave armed on WS.
+    started: bool,
+    /// What lies before the first frame both rings hold has been discarded.
+    aligned: bool,
 }
 
-impl AudioIn {
-    /// Starts capturing: the slave first, so that it sees the master's first word-select edge.
-    pub fn start(&mut self) {
-        self.b.start();
-        self.a.start();
+impl SampleSource<BLOCK_FRAMES> for AudioIn {
+    /// Starts capturing: the master, then the slave armed on the word select
+    /// ([`AudioIn::restart_in_step`]); the first `read` discards what lies before the first frame
+    /// both hold.
+    fn start(&mut self) {
+        self.started = self.restart_in_step();
+        self.aligned = false;
     }
 
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
     /// channel order (omni, card 0°, card 120°, card 240°).
     ///
-    /// On a DMA overrun of either receiver both are stopped and restarted together, so the four
-    /// channels are sample-aligned again, and [`Overrun`] is returned; `out` is then not written.
-    pub async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
+    /// On a DMA overrun of either receiver, or when a stream's channel side does not match its
+    /// position ([`AudioIn::channels_in_place`]), both receivers are halted (I2SE cleared) and
+    /// restarted in step ([`AudioIn::resync`]), and [`Overrun`] is returned; `out` is then not
+    /// written.
+    async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
+        if !self.aligned {
+            if !(self.started && self.discard_to_common_frame().await) {
+                self.resync().await;
+                return Err(Overrun);
+            }
+            self.aligned = true;
+        }
         let (ra, rb) = embassy_futures::join::join(
             self.a.read(&mut self.words_a),
             self.b.read(&mut self.words_b),
         )
         .await;
-        if ra.is_err() || rb.is_err() {
+        if ra.is_err() || rb.is_err() || !Self::channels_in_place() {
             self.resync().await;
             return Err(Overrun);
         }
         interleave_stereo_pairs(&self.words_a, &self.words_b, out);
         Ok(())
     }
+}
 
+/// Restarts of the receivers tried before giving up (then the watchdog resets the chip).
+const RESYNC_ATTEMPTS: u32 = 8;
+/// Polls of the word-select pin before a level is given up on (≥ 10 frames at 100 MHz).
+const WS_POLLS: u32 = 20_000;
+
+/// Clears I2SE, the enable bit of the I2S peripheral (the HAL's `stop` method clears only SPE, which in
+/// I2S mode leaves the peripheral running), then the receive flags (OVR is cleared by reading DR,
+/// then SR).
+fn disable_i2s(regs: pac::spi::Spi) {
+    regs.i2scfgr().modify(|w| w.set_i2se(false));
+    let _ = regs.dr().read();
+    let _ = regs.sr().read();
+}
+
+/// Waits until the slave's word-select input (PA15, wired to the master's WS) is at `high`.
+fn wait_for_ws(high: bool) -> bool {
+    let level = if high {
+        pac::gpio::vals::Idr::HIGH
+    } else {
+        pac::gpio::vals::Idr::LOW
+    };
+    (0..WS_POLLS).any(|_| pac::GPIOA.idr().read().idr(15) == level)
+}
+
+/// Halfwords the DMA stream `n` of DMA1 has written into its ring since it started (valid for
+/// the first lap of the ring).
+fn dma_received(n: usize) -> usize {
+    RING_WORDS - usize::from(pac::DMA1.st(n).ndtr().read().ndt())
+}
+
+/// Waits (at most [`WS_POLLS`] polls, ≥ one halfword time) for DMA1 stream `n` to move a
+/// halfword from `spi`, then reads the channel side of that halfword: `(position in the ring, right
+/// channel)`; `None` if nothing moved or another halfword came in between.
+fn channel_snapshot(n: usize, spi: pac::spi::Spi) -> Option<(usize, bool)> {
+    cortex_m::interrupt::free(|_| {
+        let before = pac::DMA1.st(n).ndtr().read().ndt();
+        let moved = (0..WS_POLLS)
+            .map(|_| pac::DMA1.st(n).ndtr().read().ndt())
+            .find(|&ndt| ndt != before)?;
+        let right = spi.sr().read().chside() == pac::spi::vals::Chside::RIGHT;
+        // The next halfword is ≈ 5 µs away: a change here means the reading straddled it.
+        (pac::DMA1.st(n).ndtr().read().ndt() == moved)
+            .then(|| ((RING_WORDS - usize::from(moved)) % RING_WORDS, right))
+    })
+}
+
+impl AudioIn {
+    /// Whether both streams' channel sides match their ring positions ([`channel_matches`]): ring
+    /// position 0 is a frame start for both after a restart in step.
+    fn channels_in_place() -> bool {
+        [(3, pac::SPI2), (0, pac::SPI3)]
+            .into_iter()
+            .all(|(n, spi)| {
+                let ok =
+                    channel_snapshot(n, spi).is_some_and(|(at, right)| channel_matches(at, right));
+                if !ok {
+                    defmt::warn!("I2S stream on DMA1 stream {} out of step: restarting", n);
+                }
+                ok
+            })
+    }
+
+    /// Halts both receivers for real and restarts them in step, until that succeeds
+    /// ([`RESYNC_ATTEMPTS`]; after that the firmware panics and the watchdog resets the chip).
     async fn resync(&mut self) {
-        // Stopping the master first stops the shared clocks; the slave then restarts in step with it.
-        self.a.stop().await;
-        self.b.stop().await;
-        self.start();
+        for attempt in 1..=RESYNC_ATTEMPTS {
+            self.a.stop().await;
+            self.b.stop().await;
+            disable_i2s(pac::SPI3);
+            disable_i2s(pac::SPI2);
+            if self.restart_in_step() && self.discard_to_common_frame().await {
+                self.started = true;
+                self.aligned = true;
+                return;
+            }
+            defmt::warn!("I2S restart {} not in step", attempt);
+        }
+        defmt::panic!("I2S receivers cannot be restarted in step");
+    }
+
+    /// Starts the master (it begins a frame, left channel first, with its DMA at ring position 0),
+    /// then arms the slave while WS is high (the master's right channel): a slave in I2S Philips
+    /// mode must be enabled while WS is high, or it starts at once, out of step (STM32F4 errata,
+    /// "WS level must be set by the external master when enabling the I2S"); armed so, it starts
+    /// at the next left channel, one frame after the master. Returns `false` when WS does not
+    /// toggle.
+    fn restart_in_step(&mut self) -> bool {
+        cortex_m::interrupt::free(|_| {
+            self.a.start();
+            // The master's first frame: WS low (left), then high (right).
+            if !(wait_for_ws(false) && wait_for_ws(true)) {
+                return false;
+            }
+            self.b.start();
+            true
+        })
+    }
+
+    /// Reads both DMA positions at one instant and discards from each ring what lies before the
+    /// first frame both hold ([`align`]); the phase of the frame on the wires is the master's.
+    async fn discard_to_common_frame(&mut self) -> bool {
+        // A few frames in, so that the slave has started.
+        embassy_time::Timer::after_micros(200).await;
+        let (ra, rb) = loop {
+            let (a1, b1) = (dma_received(3), dma_received(0));
+            let (a2, b2) = (dma_received(3), dma_received(0));
+            if (a1, b1) == (a2, b2) {
+                break (a1, b1);
+            }
+        };
+        let master = StreamPosition::from_frame_start(ra);
+        let slave = StreamPosition {
+            received: rb,
+            phase: master.phase,
+        };
+        // The HAL's ring reads whole frames counted from its DMA start, so only whole frames can
+        // be discarded: a slave that started mid-frame is restarted instead.
+        let Ok((skip_a, skip_b)) = align(master, slave) else {
+            return false;
+        };
+        if skip_a % WORDS_PER_STEREO_FRAME != 0 || skip_b % WORDS_PER_STEREO_FRAME != 0 {
+            return false;
+        }
+        for (i2s, mut skip) in [(&mut self.a, skip_a), (&mut self.b, skip_b)] {
+            while skip > 0 {
+                let n = skip.min(BLOCK_WORDS);
+                if i2s.read(&mut self.words_a[..n]).await.is_err() {
+                    return false;
+                }
+                skip -= n;
+            }
+        }
+        true
     }
 }
 
 /// The frame-stream UART (transmit only, DMA).
-pub type FrameTx = UartTx<'static, Async>;
+pub struct FrameTx(UartTx<'static, Async>);
+
+impl FrameWriter for FrameTx {
+    async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+        self.0.write(bytes).await.map_err(|e| {
+            defmt::warn!("USART1: {}", e);
+            WriteError
+        })
+    }
+}
 
 /// The independent watchdog.
-pub type Watchdog = IndependentWatchdog<'static, peripherals::IWDG>;
+pub struct Watchdog(IndependentWatchdog<'static, peripherals::IWDG>);
+
+impl board_api::Watchdog for Watchdog {
+    fn unleash(&mut self) {
+        self.0.unleash();
+    }
+
+    fn pet(&mut self) {
+        self.0.pet();
+    }
+}
 
 /// The board's drivers, ready to be moved into tasks.
 pub struct Board {
@@ -192,7 +355,7 @@ pub fn init() -> Board {
     // Note(unwrap): 115200 baud from a 100 MHz APB2 is always reachable.
     let uart = UartTx::new(p.USART1, p.PA9, p.DMA2_CH7, Irqs, uart_cfg).unwrap();
 
-    let watchdog = IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
+    let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
 
     Board {
         audio: AudioIn {
@@ -200,8 +363,10 @@ pub fn init() -> Board {
             b,
             words_a: [0; BLOCK_WORDS],
             words_b: [0; BLOCK_WORDS],
+            started: false,
+            aligned: false,
         },
-        uart,
+        uart: FrameTx(uart),
         watchdog,
     }
 }

@@ -1,14 +1,29 @@
-//! Chip-independent parts of the array-board firmware, built for the host too so they are unit tested.
+//! Board-independent parts of the array-board firmware, built for the host too so they are unit tested.
 //!
+//! * [`board_api`] — the board interface the application is written against (sample blocks with
+//!   overrun reports, a frame writer, a watchdog);
+//! * [`i2s_align`] — frame and channel alignment of the two I2S receive streams after a (re)start,
+//!   and the channel-side check that finds a stream that slipped;
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
 //! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
 //! * [`stored_capsules`] — the capsule estimate the self-calibration starts from, embedded at build
-//!   time (`CMA_SELFCAL=path`).
+//!   time (`CMA_SELFCAL=path`);
+//! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
 //!
-//! The embassy application itself (`src/main.rs`, `src/app.rs`, `src/board.rs`) only builds for the target.
+//! The embassy application (`src/app.rs`) and the boards (`src/board.rs` for the STM32F411CE,
+//! `src/board_mps2.rs` for QEMU `mps2-an386`) only build for the target: `src/main.rs` and
+//! `src/bin/firmware-mps2.rs` put one board under the application each.
 #![no_std]
 
+// The host tests use `Vec`.
+#[cfg(test)]
+extern crate std;
+
+pub mod board_api;
+pub mod emulated;
+pub mod i2s_align;
 pub mod sample;
 pub mod stats;
 pub mod stored_capsules;
+pub mod wav;

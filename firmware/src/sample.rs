@@ -2,7 +2,8 @@
 //!
 //! The STM32 SPI/I2S data register is 16 bits wide. With 24-bit data in 32-bit channel slots the DMA
 //! delivers every channel sample as two halfwords: bits 23…8 of the code first, then bits 7…0 in the
-//! upper byte of the second halfword (its lower byte is 0). One stereo sample frame is therefore four
+//! upper byte of the second halfword (its lower byte is undefined — the reference manual: "8 LSBs
+//! have no meaning and can be anything" — and ignored). One stereo sample frame is therefore four
 //! halfwords: left high, left low, right high, right low.
 
 use cma_core::CHANNELS;

@@ -1,0 +1,55 @@
+//! The board interface: what the application needs from a board, and nothing else.
+//!
+//! A board provides
+//! * a [`SampleSource`]: blocks of sample frames in the core's channel order (omni, cardioid 0°,
+//!   120°, 240°; full scale ±1), or an [`Overrun`] when samples were lost;
+//! * a [`FrameWriter`]: the byte stream of frame and calibration lines (a UART);
+//! * a [`Watchdog`] that resets the board when the DSP task no longer pets it;
+//! * time: an `embassy-time` driver (the application's defmt timestamps).
+//!
+//! The application (`src/app.rs`) uses only these traits and the board module's constants
+//! (`SAMPLE_RATE_HZ`, `BLOCK_FRAMES`) and `init`; embassy tasks cannot be generic, so each binary
+//! names its board's concrete types (`src/board.rs` for the STM32F411CE, `src/board_mps2.rs` for the
+//! emulated board).
+
+use cma_core::CHANNELS;
+
+/// The capture lost samples (a DMA ring was lapped, or an I2S receiver overran).
+///
+/// When a [`SampleSource`] returns it, the source has already realigned itself: the next block starts
+/// at a sample-frame boundary with every channel in its place. The samples between the last block
+/// delivered and the next one are gone; the caller counts the event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct Overrun;
+
+/// Writing to the frame link failed (the board has logged the cause).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
+pub struct WriteError;
+
+/// Blocks of `N` sample frames from the capsules.
+#[allow(async_fn_in_trait)] // single-threaded executor: no `Send` bound wanted
+pub trait SampleSource<const N: usize> {
+    /// Starts capturing. Called once, just before the first [`read`](Self::read).
+    fn start(&mut self);
+
+    /// Waits for the next block and writes it to `out`, or returns [`Overrun`] (then `out` is
+    /// unspecified and the source is realigned; see [`Overrun`]).
+    async fn read(&mut self, out: &mut [[f32; CHANNELS]; N]) -> Result<(), Overrun>;
+}
+
+/// The byte stream of the frame link.
+#[allow(async_fn_in_trait)] // single-threaded executor: no `Send` bound wanted
+pub trait FrameWriter {
+    /// Writes all of `bytes`, waiting as long as the link needs.
+    async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError>;
+}
+
+/// A watchdog that resets the board unless it is petted in time.
+pub trait Watchdog {
+    /// Starts the watchdog (it cannot be switched off again).
+    fn unleash(&mut self);
+    /// Restarts its timeout.
+    fn pet(&mut self);
+}
