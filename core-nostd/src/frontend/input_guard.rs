@@ -75,8 +75,8 @@ impl InputGuard {
     /// with the rest of `block`.
     ///
     /// Integer scans (|v| ≥ level ⟺ 2·abs_bits(v) ≥ 2·bits(level) for a level > 0, NaN and ±Inf
-    /// included): the first frame with a value at or above the clip level ([`first_at_or_above`],
-    /// the common case's only scan); from there one pass ([`scan_block`]) that tests each clipped
+    /// included): the first frame with a value at or above the clip level (`first_at_or_above`,
+    /// the common case's only scan); from there one pass (`scan_block`) that tests each clipped
     /// frame for a value that cleaning changes (beyond full scale, or not finite) and ends at the
     /// first such frame, or at the end of `block` with the last clipped frame.
     #[inline]
