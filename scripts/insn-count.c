@@ -1,11 +1,12 @@
 /*
- * Minimal QEMU TCG plugin: counts the guest instructions executed (all vCPUs) and prints the total at
- * exit as "insns <n>". Debian's QEMU loads plugins but ships no qemu-plugin.h, so the few API
+ * Minimal QEMU TCG plugin: counts the guest instructions executed (all vCPUs) and their bytes of code,
+ * and prints the totals at exit as "insns <n>" and "bytes <n>". Debian's QEMU loads plugins but ships no qemu-plugin.h, so the few API
  * declarations used are written out here (plugin API version 1, QEMU 7.x).
  *
  * Optional marks (addresses of functions of the guest program, e.g. from llvm-nm):
- *   hop=ADDR     each time ADDR is entered, print "hop <n>": instructions counted since the last
- *                "hop" (or since the start), not counting the paused stretches;
+ *   hop=ADDR     each time ADDR is entered, print "hop <n> <b>": instructions (and their bytes of
+ *                code) counted since the last "hop" (or since the start), not counting the paused
+ *                stretches;
  *   pause=ADDR   entering ADDR stops the count of the "hop" lines ...
  *   resume=ADDR  ... and entering ADDR starts it again (input generation is left out this way).
  * The total at exit counts everything.
@@ -31,6 +32,9 @@ typedef void (*qemu_plugin_vcpu_udata_cb_t)(unsigned int vcpu_index, void *userd
 
 void qemu_plugin_register_vcpu_tb_trans_cb(qemu_plugin_id_t id, qemu_plugin_vcpu_tb_trans_cb_t cb);
 size_t qemu_plugin_tb_n_insns(const struct qemu_plugin_tb *tb);
+struct qemu_plugin_insn;
+struct qemu_plugin_insn *qemu_plugin_tb_get_insn(const struct qemu_plugin_tb *tb, size_t idx);
+size_t qemu_plugin_insn_size(const struct qemu_plugin_insn *insn);
 uint64_t qemu_plugin_tb_vaddr(const struct qemu_plugin_tb *tb);
 void qemu_plugin_register_vcpu_tb_exec_inline(struct qemu_plugin_tb *tb, enum qemu_plugin_op op,
                                               void *ptr, uint64_t imm);
@@ -46,9 +50,11 @@ static const char *mark_names[MARKS] = {"hop=", "pause=", "resume="};
 /* Thumb code: the symbol's bit 0 is not part of the address; ~0 = not set. */
 static uint64_t mark_addr[MARKS] = {~0ull, ~0ull, ~0ull};
 
-static uint64_t insns;
-/* Instructions in paused stretches so far, where the current one started, and the last hop's end. */
+static uint64_t insns, bytes;
+/* Instructions (and bytes) in paused stretches so far, where the current one started, and the last
+ * hop's end. */
 static uint64_t paused_total, paused_at, last_hop;
+static uint64_t paused_bytes, paused_bytes_at, last_hop_bytes;
 static int paused;
 
 static void on_mark(unsigned int vcpu, void *udata)
@@ -58,21 +64,26 @@ static void on_mark(unsigned int vcpu, void *udata)
     case MARK_HOP: {
         char buf[64];
         uint64_t now = insns - paused_total;
-        snprintf(buf, sizeof buf, "hop %" PRIu64 "\n", now - last_hop);
+        uint64_t now_bytes = bytes - paused_bytes;
+        snprintf(buf, sizeof buf, "hop %" PRIu64 " %" PRIu64 "\n", now - last_hop,
+                 now_bytes - last_hop_bytes);
         qemu_plugin_outs(buf);
         last_hop = now;
+        last_hop_bytes = now_bytes;
         break;
     }
     case MARK_PAUSE:
         if (!paused) {
             paused = 1;
             paused_at = insns;
+            paused_bytes_at = bytes;
         }
         break;
     case MARK_RESUME:
         if (paused) {
             paused = 0;
             paused_total += insns - paused_at;
+            paused_bytes += bytes - paused_bytes_at;
         }
         break;
     default:
@@ -83,9 +94,14 @@ static void on_mark(unsigned int vcpu, void *udata)
 static void tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb)
 {
     (void)id;
-    /* Every execution of this translation block adds its instruction count. */
-    qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &insns,
-                                             qemu_plugin_tb_n_insns(tb));
+    /* Every execution of this translation block adds its instruction count and size. */
+    size_t n = qemu_plugin_tb_n_insns(tb);
+    uint64_t size = 0;
+    for (size_t i = 0; i < n; i++) {
+        size += qemu_plugin_insn_size(qemu_plugin_tb_get_insn(tb, i));
+    }
+    qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &insns, n);
+    qemu_plugin_register_vcpu_tb_exec_inline(tb, QEMU_PLUGIN_INLINE_ADD_U64, &bytes, size);
     uint64_t pc = qemu_plugin_tb_vaddr(tb);
     for (int m = 0; m < MARKS; m++) {
         if (pc == mark_addr[m]) {
@@ -100,7 +116,7 @@ static void at_exit(qemu_plugin_id_t id, void *p)
     char buf[64];
     (void)id;
     (void)p;
-    snprintf(buf, sizeof buf, "insns %" PRIu64 "\n", insns);
+    snprintf(buf, sizeof buf, "insns %" PRIu64 "\nbytes %" PRIu64 "\n", insns, bytes);
     qemu_plugin_outs(buf);
 }
 

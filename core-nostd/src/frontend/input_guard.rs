@@ -75,8 +75,10 @@ impl InputGuard {
     /// with the rest of `block`.
     ///
     /// Integer scans (|v| ≥ level ⟺ 2·abs_bits(v) ≥ 2·bits(level) for a level > 0, NaN and ±Inf
-    /// included): the first frame with a value at or above the clip level; from there whether a value changes (beyond full scale, or not
-    /// finite), and if none does, the last clipped frame, searched backwards.
+    /// included): the first frame with a value at or above the clip level (`first_at_or_above`,
+    /// the common case's only scan); from there one pass (`scan_block`) that tests each clipped
+    /// frame for a value that cleaning changes (beyond full scale, or not finite) and ends at the
+    /// first such frame, or at the end of `block` with the last clipped frame.
     #[inline]
     pub fn clean_block<'a>(
         &self,
@@ -94,7 +96,7 @@ impl InputGuard {
         }
         let level = self.clip_level;
         if !(level > 0.0) {
-            return self.clean_copy(state, block, scratch);
+            return self.clean_copy(state, block, scratch, (0, 0));
         }
         let limit = level.to_bits() << 1;
         let minus_limit = limit.wrapping_neg();
@@ -106,31 +108,41 @@ impl InputGuard {
         // Cleaning changes v iff it is not finite, or |v| ≥ level and |v| > 1 (the clamp to ±1): iff
         // u = 2·abs_bits(v) ≥ max(limit, 2·bits(1) + 2) (u is even).
         let minus_change = limit.max((1.0f32.to_bits() << 1) + 2).wrapping_neg();
-        if first_at_or_above(&block[first..], minus_change) == n - first {
+        let (change, last) = scan_block(&block[first..], minus_limit, minus_change);
+        // Frame `first` clips: `last` is 0 only when it is also the first that changes.
+        let (change, last_clip) = (first + change, if last == 0 { 0 } else { first + last });
+        if change == n {
             // Nothing changes: the block stays as it is; the last clipped frame sets the hold.
-            let last_clip = block[first..]
-                .iter()
-                .rposition(|x| x.iter().any(|v| at_or_above(*v, minus_limit)))
-                .map_or(0, |i| first + i + 1);
             self.count_down(state, n, last_clip, 0);
             return block;
         }
         // (A copy of the whole block rather than its unchanged start in place: the decimator's
         // per-call cost, and its sample-by-sample path where a piece ends inside a group, would be
-        // paid twice.)
-        self.clean_copy(state, block, scratch)
+        // paid twice.) The frames before `change` are copied as they are when the copy reaches it.
+        let done = if change <= scratch.len() {
+            (change, last_clip)
+        } else {
+            (0, 0)
+        };
+        self.clean_copy(state, block, scratch, done)
     }
 
     /// [`InputGuard::clean_block`]'s copy: the first `scratch.len()` frames of `block` (or fewer)
-    /// cleaned into `scratch`, for any clip level (also ≤ 0 or NaN).
+    /// cleaned into `scratch`, for any clip level (also ≤ 0 or NaN). `done` = (s, c): the first s
+    /// frames (s ≤ `scratch.len()`) are known to need no cleaning, and the last clipped one among
+    /// them has index c − 1 (0: none); (0, 0) knows nothing.
     fn clean_copy<'a>(
         &self,
         state: &mut InputGuardState,
         block: &[[f32; CHANNELS]],
         scratch: &'a mut [[f32; CHANNELS]],
+        done: (usize, usize),
     ) -> &'a [[f32; CHANNELS]] {
         let n = block.len().min(scratch.len());
         let (block, out) = (&block[..n], &mut scratch[..n]);
+        let (start, mut last_clip) = done;
+        let start = start.min(n);
+        copy_frames(&mut out[..start], &block[..start]);
         let level = self.clip_level;
         // Frames found by the scan are cleaned value by value, the runs between them copied.
         let minus_limit = if level > 0.0 {
@@ -139,16 +151,14 @@ impl InputGuard {
             // Every value is suspect (at a NaN level, only the non-finite ones change).
             0
         };
-        let mut last_clip = 0usize;
         let mut last_nonfinite = 0usize;
-        let mut i = 0;
+        let mut i = start;
         while i < n {
             let j = if minus_limit == 0 {
                 i
             } else {
-                i + first_at_or_above(&block[i..], minus_limit)
+                i + copy_below(&mut out[i..], &block[i..], minus_limit)
             };
-            copy_frames(&mut out[i..j], &block[i..j]);
             if j == n {
                 break;
             }
@@ -281,7 +291,71 @@ fn copy_frames(dst: &mut [[f32; CHANNELS]], src: &[[f32; CHANNELS]]) {
     }
 }
 
+/// Copies the sample frames of `src` into `dst` (at least as long) up to the first one with a value
+/// whose u = 2·abs_bits(v) carries in u + `minus_limit` (as in [`first_at_or_above`]), which is not
+/// copied; returns its index, or `src.len()` when there is none (all copied).
+#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+#[inline]
+fn copy_below(dst: &mut [[f32; CHANNELS]], src: &[[f32; CHANNELS]], minus_limit: u32) -> usize {
+    let j = first_at_or_above(src, minus_limit);
+    copy_frames(&mut dst[..j], &src[..j]);
+    j
+}
+
+/// [`copy_below`] on the hard-float Arm targets (the Cortex-M4F): the loop of [`first_at_or_above`]
+/// with an `STM` of the frame's four values once they passed, 3 instructions per value; one pass
+/// over the input for the scan and the copy.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline]
+#[allow(unsafe_code)]
+fn copy_below(dst: &mut [[f32; CHANNELS]], src: &[[f32; CHANNELS]], minus_limit: u32) -> usize {
+    let n = src.len();
+    if n == 0 {
+        return 0;
+    }
+    let dst = &mut dst[..n];
+    let start = src.as_ptr();
+    let end = start.wrapping_add(n);
+    let mut p = start;
+    // Note(unsafe): reads the 16 bytes of each frame of `src` (a valid slice, `p` from its first to
+    // its last frame) and writes those of the frame at the same index of `dst` (a valid slice of
+    // the same length, `q` following `p`), for every frame before the one found, and nothing else;
+    // `p` ends one frame past the frame found, or two past the last frame (`end` + 1) when none is
+    // found; no stack; `r0`–`r3` and the flags are declared clobbered.
+    unsafe {
+        core::arch::asm!(
+            "2:",
+            "ldm {p}!, {{r0, r1, r2, r3}}",
+            "adds {t}, {m}, r0, lsl #1",
+            "bcs 3f",
+            "adds {t}, {m}, r1, lsl #1",
+            "bcs 3f",
+            "adds {t}, {m}, r2, lsl #1",
+            "bcs 3f",
+            "adds {t}, {m}, r3, lsl #1",
+            "bcs 3f",
+            "stm {q}!, {{r0, r1, r2, r3}}",
+            "cmp {p}, {end}",
+            "bne 2b",
+            "add {p}, {p}, #16",
+            "3:",
+            p = inout(reg) p,
+            q = inout(reg) dst.as_mut_ptr() => _,
+            m = in(reg) minus_limit,
+            end = in(reg) end,
+            t = out(reg) _,
+            out("r0") _,
+            out("r1") _,
+            out("r2") _,
+            out("r3") _,
+            options(nostack)
+        );
+    }
+    (p as usize - start as usize) / core::mem::size_of::<[f32; CHANNELS]>() - 1
+}
+
 /// Whether u = 2·abs_bits(`v`) carries in u + `minus_limit` (u ≥ limit for `minus_limit` = −limit).
+#[cfg(any(not(all(target_arch = "arm", target_abi = "eabihf")), test))]
 #[inline(always)]
 fn at_or_above(v: f32, minus_limit: u32) -> bool {
     (v.to_bits() << 1).overflowing_add(minus_limit).1
@@ -297,6 +371,97 @@ fn first_at_or_above(block: &[[f32; CHANNELS]], minus_limit: u32) -> usize {
         .iter()
         .position(|x| x.iter().any(|v| at_or_above(*v, minus_limit)))
         .unwrap_or(block.len())
+}
+
+/// The scan of [`InputGuard::clean_block`], with u = 2·abs_bits(v) of each value v and the limits
+/// as in [`first_at_or_above`]: the index of the first sample frame with a value whose u carries in
+/// u + `minus_change` (its cleaning changes it), or `block.len()`; and one past the index of the last
+/// frame before that one with a value whose u carries in u + `minus_limit` (0: none). Every value that
+/// carries with `minus_change` must carry with `minus_limit` (change ≥ limit).
+#[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+#[inline]
+fn scan_block(block: &[[f32; CHANNELS]], minus_limit: u32, minus_change: u32) -> (usize, usize) {
+    let mut last_clip = 0;
+    for (i, x) in block.iter().enumerate() {
+        if x.iter().any(|v| at_or_above(*v, minus_limit)) {
+            if x.iter().any(|v| at_or_above(*v, minus_change)) {
+                return (i, last_clip);
+            }
+            last_clip = i + 1;
+        }
+    }
+    (block.len(), last_clip)
+}
+
+/// [`scan_block`] on the hard-float Arm targets (the Cortex-M4F): the loop of [`first_at_or_above`]
+/// (2.75 instructions per value) that, at a frame with a value at or above the limit, tests the
+/// frame's four values (still in registers) against the change limit, notes the frame and goes on;
+/// one pass over the block however many frames clip.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[inline]
+#[allow(unsafe_code)]
+fn scan_block(block: &[[f32; CHANNELS]], minus_limit: u32, minus_change: u32) -> (usize, usize) {
+    if block.is_empty() {
+        return (0, 0);
+    }
+    let start = block.as_ptr();
+    let end = start.wrapping_add(block.len());
+    let mut p = start;
+    let mut last = start;
+    // Note(unsafe): reads the 16 bytes of each frame of `block` (a valid slice, `p` from its first to
+    // its last frame) and nothing else; `p` ends one frame past the frame whose cleaning changes a
+    // value, or two past the last frame (`end` + 1) when there is none; `last` is one frame past the
+    // last clipped frame before it (or `start`); no stack; `r0`–`r3` and the flags are declared
+    // clobbered.
+    unsafe {
+        core::arch::asm!(
+            "2:",
+            "ldm {p}!, {{r0, r1, r2, r3}}",
+            "adds {t}, {m}, r0, lsl #1",
+            "bcs 3f",
+            "adds {t}, {m}, r1, lsl #1",
+            "bcs 3f",
+            "adds {t}, {m}, r2, lsl #1",
+            "bcs 3f",
+            "adds {t}, {m}, r3, lsl #1",
+            "bcs 3f",
+            "cmp {p}, {end}",
+            "bne 2b",
+            "b 4f",
+            // A clipped frame: does its cleaning change a value?
+            "3:",
+            "adds {t}, {mc}, r0, lsl #1",
+            "bcs 5f",
+            "adds {t}, {mc}, r1, lsl #1",
+            "bcs 5f",
+            "adds {t}, {mc}, r2, lsl #1",
+            "bcs 5f",
+            "adds {t}, {mc}, r3, lsl #1",
+            "bcs 5f",
+            "mov {last}, {p}",
+            "cmp {p}, {end}",
+            "bne 2b",
+            "4:",
+            "add {p}, {p}, #16",
+            "5:",
+            p = inout(reg) p,
+            last = inout(reg) last,
+            m = in(reg) minus_limit,
+            mc = in(reg) minus_change,
+            end = in(reg) end,
+            t = out(reg) _,
+            out("r0") _,
+            out("r1") _,
+            out("r2") _,
+            out("r3") _,
+            options(readonly, nostack)
+        );
+    }
+    let frame = core::mem::size_of::<[f32; CHANNELS]>();
+    (
+        (p as usize - start as usize) / frame - 1,
+        (last as usize - start as usize) / frame,
+    )
 }
 
 /// [`first_at_or_above`] on the hard-float Arm targets (the Cortex-M4F): per sample frame one `LDM` of its four values
@@ -514,6 +679,61 @@ mod tests {
         let out = g.clean_block(&mut s, &x[6..], &mut scratch);
         assert!(core::ptr::eq(out, &x[6..]));
         assert_eq!((s.clip_hold, s.nonfinite_hold), (99, 97));
+    }
+
+    /// The scan of `clean_block` finds the first frame whose cleaning changes a value and the last
+    /// clipped frame before it, as the float tests do, on random blocks of clean, clipped (at and
+    /// beyond full scale) and non-finite values.
+    #[test]
+    fn scan_finds_first_change_and_last_clip() {
+        let mut rng = crate::test_rng::XorShift64(0x2545_f491_4f6c_dd1d);
+        let level = 0.999f32;
+        let minus_limit = (level.to_bits() << 1).wrapping_neg();
+        let minus_change = ((1.0f32.to_bits() << 1) + 2).wrapping_neg();
+        for _ in 0..2000 {
+            let len = (rng.next_u64() % 12) as usize;
+            let mut pick = || {
+                let r = rng.next_u64();
+                match r % 16 {
+                    0 => [1.0, -1.0, 0.9995, -level][(r >> 8) as usize % 4],
+                    1 if r % 64 == 1 => {
+                        [f32::NAN, f32::INFINITY, 1.5, -1.0001][(r >> 8) as usize % 4]
+                    }
+                    _ => ((r >> 8) % 1999) as f32 / 1000.0 - 0.999,
+                }
+            };
+            let block: [[f32; CHANNELS]; 12] =
+                core::array::from_fn(|_| core::array::from_fn(|_| pick()));
+            let block = &block[..len];
+            let changes = |x: &[f32; CHANNELS]| x.iter().any(|v| !v.is_finite() || v.abs() > 1.0);
+            let clips = |x: &[f32; CHANNELS]| x.iter().any(|v| !v.is_finite() || v.abs() >= level);
+            let change = block.iter().position(changes).unwrap_or(len);
+            let last_clip = block[..change].iter().rposition(clips).map_or(0, |i| i + 1);
+            assert_eq!(
+                scan_block(block, minus_limit, minus_change),
+                (change, last_clip),
+                "{block:?}"
+            );
+        }
+    }
+
+    /// `copy_below` copies exactly the frames before the first one at or above the limit.
+    #[test]
+    fn copy_below_stops_at_the_first_frame_at_or_above() {
+        let minus_limit = (0.999f32.to_bits() << 1).wrapping_neg();
+        for bad in 0..=6 {
+            let mut src = [[0.25f32; CHANNELS]; 6];
+            src.iter_mut()
+                .enumerate()
+                .for_each(|(i, x)| x[i % CHANNELS] = i as f32 / 8.0);
+            if let Some(x) = src.get_mut(bad) {
+                x[bad % CHANNELS] = f32::NAN;
+            }
+            let mut dst = [[-1.0f32; CHANNELS]; 6];
+            assert_eq!(copy_below(&mut dst, &src, minus_limit), bad);
+            assert_eq!(dst[..bad], src[..bad]);
+            assert!(dst[bad..].iter().flatten().all(|v| *v == -1.0));
+        }
     }
 
     /// The x86_64 scan agrees with the portable carry count on random bit patterns (NaN, ±Inf,

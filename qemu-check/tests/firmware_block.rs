@@ -1,0 +1,53 @@
+//! The cost check and the bit-for-bit check feed the localizer in blocks of
+//! `qemu_check::FIRMWARE_BLOCK` sample frames because that is what the firmware passes it: this test
+//! reads the firmware's `BLOCK_FRAMES` from its source (the firmware builds only for the target) and
+//! compares.
+
+use std::path::Path;
+
+/// Every `.rs` file under `dir`.
+fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("read the firmware's source folder") {
+        let path = entry.expect("a folder entry").path();
+        if path.is_dir() {
+            sources(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn firmware_block_is_the_firmwares_block_frames() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/src");
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let prefix = "pub const BLOCK_FRAMES: usize = ";
+    let values: Vec<(String, usize)> = files
+        .iter()
+        .flat_map(|f| {
+            let text = std::fs::read_to_string(f).expect("read a firmware source file");
+            text.lines()
+                .filter_map(|l| l.trim().strip_prefix(prefix))
+                .map(|v| {
+                    let v = v.trim_end_matches(';').trim();
+                    let n = v.parse().unwrap_or_else(|_| {
+                        panic!("{}: BLOCK_FRAMES = {v} is not a number", f.display())
+                    });
+                    (f.display().to_string(), n)
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    assert_eq!(
+        values.len(),
+        1,
+        "one `{prefix}N;` in firmware/src, found {values:?}"
+    );
+    assert_eq!(
+        values[0].1,
+        qemu_check::FIRMWARE_BLOCK,
+        "firmware BLOCK_FRAMES ({}) and qemu_check::FIRMWARE_BLOCK differ",
+        values[0].0
+    );
+}
