@@ -149,13 +149,20 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
     /// channel order ([`tdm::deinterleave`]).
     ///
-    /// When the DMA has lapped the ring (the HAL's overrun), or the SAI reports a lost word or a
-    /// frame error ([`AudioIn::receiver_in_step`]), the receiver is restarted at a frame sync
-    /// ([`AudioIn::resync`]) and [`Overrun`] is returned; `out` is then not written.
+    /// Returns [`Overrun`] (`out` not written) when samples were lost:
+    /// * the DMA lapped the ring (the HAL's overrun): the HAL continues at the DMA position of that
+    ///   moment, possibly mid-frame, so the receiver is restarted at a frame sync
+    ///   ([`AudioIn::resync`]);
+    /// * the SAI's FIFO overflowed (OVRUDR; the DMA fell behind by more than 8 words): whole
+    ///   frames are lost, but the SAI keeps the slots in place (it resumes storing, in a later
+    ///   frame, at the slot where the overrun began: the reference manual's SAI error flags), so
+    ///   the flag is only cleared.
     async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
-        let received = self.sai.read(&mut self.words).await.is_ok();
-        if !(received && Self::receiver_in_step()) {
+        if self.sai.read(&mut self.words).await.is_err() {
             self.resync();
+            return Err(Overrun);
+        }
+        if Self::take_fifo_overrun() {
             return Err(Overrun);
         }
         tdm::deinterleave(&self.words, out);
@@ -164,24 +171,15 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
 }
 
 impl AudioIn {
-    /// Whether the SAI has received every slot since its last start: no FIFO overrun (a word lost
-    /// shifts every later slot), no wrong clock configuration, and (in slave mode, for a board
-    /// that runs the SAI as slave) no frame sync early or late.
-    fn receiver_in_step() -> bool {
-        let sr = sai_block().sr().read();
-        let ok = !sr.ovrudr()
-            && sr.wckcfg() == pac::sai::vals::Wckcfg::CORRECT
-            && !sr.afsdet()
-            && !sr.lfsdet();
-        if !ok {
-            defmt::warn!(
-                "SAI1_B: overrun {}, anticipated/late frame sync {}/{}",
-                sr.ovrudr(),
-                sr.afsdet(),
-                sr.lfsdet()
-            );
+    /// Whether the SAI's FIFO overflowed since the last call (the flag is cleared).
+    fn take_fifo_overrun() -> bool {
+        let ch = sai_block();
+        let overrun = ch.sr().read().ovrudr();
+        if overrun {
+            ch.clrfr().write(|w| w.set_covrudr(true));
+            defmt::warn!("SAI1_B: FIFO overrun");
         }
-        ok
+        overrun
     }
 
     /// Restarts the receiver at a frame sync until that succeeds ([`RESYNC_ATTEMPTS`]; after that
@@ -200,8 +198,8 @@ impl AudioIn {
     /// SAI driver of embassy-stm32 0.6 has no stop, and does not expose the ring's frame
     /// alignment): the DMA ring keeps running throughout.
     ///
-    /// 1. clear SAIEN and wait until it reads 0 (the block stops at the end of the current
-    ///    frame); flush the FIFO: the SAI requests no more DMA transfers, so the DMA stops at
+    /// 1. clear SAIEN and wait until it reads 0 (SAIEN stays set until the frame under way is
+    ///    complete); flush the FIFO: the SAI requests no more DMA transfers, so the DMA stops at
     ///    some ring position *q*;
     /// 2. drain the ring (the HAL's reads, polled once each, until one does not complete): the
     ///    HAL's read position is then *q*, whatever it was (after a lapped ring the HAL restarts
@@ -209,8 +207,9 @@ impl AudioIn {
     /// 3. clear the SAI's flags and set SAIEN: as master, the block starts a frame with its frame
     ///    sync and stores slot 0 first, which the DMA writes at *q*.
     ///
-    /// Returns `false` when the block does not stop or does not start. The bit clock stops for
-    /// the few µs of the restart; the ADC resumes by itself when it returns.
+    /// Returns `false` when the block does not stop or does not start. The bit clock stops from
+    /// the end of the frame until SAIEN is set again (a few µs); how the ADC's clock-error
+    /// detection treats such a gap (it mutes and resumes on a clock error) is not verified.
     fn restart_at_frame_sync(&mut self) -> bool {
         let ch = sai_block();
         ch.cr1().modify(|w| w.set_saien(false));
