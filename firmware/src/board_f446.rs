@@ -29,7 +29,7 @@
 
 use cma_core::CHANNELS;
 use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
-use cma_firmware::tdm::{self, SLOTS};
+use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
 use embassy_stm32::i2c::{self, I2c};
 use embassy_stm32::mode::{Async, Blocking};
@@ -194,9 +194,8 @@ impl AudioIn {
         defmt::panic!("SAI1_B cannot be restarted");
     }
 
-    /// Restarts the receiver so that the ring continues at slot 0 of a frame, with the PAC (the
-    /// SAI driver of embassy-stm32 0.6 has no stop, and does not expose the ring's frame
-    /// alignment): the DMA ring keeps running throughout.
+    /// Restarts the receiver so that the ring continues at slot 0 of a frame
+    /// ([`tdm::restart_at_frame_sync`] on [`SaiRestart`]; the DMA ring keeps running throughout):
     ///
     /// 1. clear SAIEN and wait until it reads 0 (SAIEN stays set until the frame under way is
     ///    complete); flush the FIFO: the SAI requests no more DMA transfers, so the DMA stops at
@@ -211,22 +210,39 @@ impl AudioIn {
     /// the end of the frame until SAIEN is set again (a few µs); how the ADC's clock-error
     /// detection treats such a gap (it mutes and resumes on a clock error) is not verified.
     fn restart_at_frame_sync(&mut self) -> bool {
+        let mut rx = SaiRestart {
+            sai: &mut self.sai,
+            words: &mut self.words,
+        };
+        tdm::restart_at_frame_sync(&mut rx, RING_WORDS / BLOCK_WORDS)
+    }
+}
+
+/// SAI1 block B and its DMA ring as a [`TdmReceiver`], with the PAC for the enable bit, the FIFO
+/// and the flags (the SAI driver of embassy-stm32 0.6 has no stop, and does not expose the ring's
+/// frame alignment) and the HAL's ring reads for the drain.
+struct SaiRestart<'a> {
+    sai: &'a mut Sai<'static, peripherals::SAI1, u32>,
+    words: &'a mut [u32; BLOCK_WORDS],
+}
+
+impl TdmReceiver for SaiRestart<'_> {
+    fn stop(&mut self) -> bool {
         let ch = sai_block();
         ch.cr1().modify(|w| w.set_saien(false));
-        if !(0..POLLS).any(|_| !ch.cr1().read().saien()) {
-            return false;
-        }
-        ch.cr2().modify(|w| w.set_fflush(true));
-        // At most a ring's worth of blocks is waiting; the read that finds less stops the drain
-        // (it has taken what there was), and so does a lapped ring (the HAL then resets its read
-        // position to the stopped DMA's).
-        for _ in 0..=RING_WORDS / BLOCK_WORDS {
-            match embassy_futures::poll_once(self.sai.read(&mut self.words)) {
-                Poll::Ready(Ok(())) => {}
-                Poll::Ready(Err(_)) | Poll::Pending => break,
-            }
-        }
-        ch.clrfr().write(|w| {
+        (0..POLLS).any(|_| !ch.cr1().read().saien())
+    }
+
+    fn flush_fifo(&mut self) {
+        sai_block().cr2().modify(|w| w.set_fflush(true));
+    }
+
+    fn read_block_now(&mut self) -> Poll<Result<(), ()>> {
+        embassy_futures::poll_once(self.sai.read(&mut self.words[..])).map(|r| r.map_err(|_| ()))
+    }
+
+    fn clear_flags(&mut self) {
+        sai_block().clrfr().write(|w| {
             w.set_covrudr(true);
             w.set_cmutedet(true);
             w.set_cwckcfg(true);
@@ -234,6 +250,10 @@ impl AudioIn {
             w.set_cafsdet(true);
             w.set_clfsdet(true);
         });
+    }
+
+    fn start(&mut self) -> bool {
+        let ch = sai_block();
         ch.cr1().modify(|w| w.set_saien(true));
         ch.cr1().read().saien()
     }

@@ -7,7 +7,7 @@
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
 //! * [`tdm`] — 4-slot TDM words (one 4-channel ADC on the STM32F446 board's SAI) to `f32`
-//!   sample frames in the core's channel order;
+//!   sample frames in the core's channel order, and the receiver's restart at a frame sync;
 //! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
 //! * [`stored_capsules`] — the capsule estimate the self-calibration starts from, embedded at build
 //!   time (`CMA_SELFCAL=path`);
