@@ -5,7 +5,8 @@
 //!   `src/stored_capsules.rs`); a bad file fails the build with the parser's message; without the
 //!   variable the start is the ideal capsule. For every target, so the host tests see it too.
 //! * link arguments, for the target only: the board's memory layout as `memory.x` (`memory.x` for
-//!   the STM32F411CE, `memory-mps2.x` for the emulated board; the `board-*` feature selects it)
+//!   the STM32F411CE, `memory-f446.x` for the STM32F446RE, `memory-mps2.x` for the emulated board;
+//!   the `board-*` feature selects it)
 //!   found from any directory, cortex-m-rt's `link.x`, defmt's `defmt.x`.
 
 use cma_core::capsule_calibration::{BandModel, CapsuleEstimate};
@@ -17,6 +18,7 @@ use std::path::{Path, PathBuf};
 fn main() {
     println!("cargo:rerun-if-changed=memory.x");
     println!("cargo:rerun-if-changed=memory-mps2.x");
+    println!("cargo:rerun-if-changed=memory-f446.x");
     println!("cargo:rerun-if-changed=build.rs");
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
     stored_capsules(&out);
@@ -25,12 +27,14 @@ fn main() {
     }
     let f411 = env::var_os("CARGO_FEATURE_BOARD_F411").is_some();
     let mps2 = env::var_os("CARGO_FEATURE_BOARD_MPS2").is_some();
-    let layout = match (f411, mps2) {
-        (true, false) => "memory.x",
-        (false, true) => "memory-mps2.x",
+    let f446 = env::var_os("CARGO_FEATURE_BOARD_F446").is_some();
+    let layout = match (f411, mps2, f446) {
+        (true, false, false) => "memory.x",
+        (false, true, false) => "memory-mps2.x",
+        (false, false, true) => "memory-f446.x",
         _ => panic!(
             "select exactly one board: the default features (board-f411) or \
-             `--no-default-features --features board-mps2`"
+             `--no-default-features --features board-mps2` or `… --features board-f446`"
         ),
     };
     fs::copy(layout, out.join("memory.x")).expect("copy the memory layout");

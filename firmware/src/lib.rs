@@ -6,14 +6,17 @@
 //!   and the channel-side check that finds a stream that slipped;
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
+//! * [`tdm`] — 4-slot TDM words (one 4-channel ADC on the STM32F446 board's SAI) to `f32`
+//!   sample frames in the core's channel order, and the receiver's restart at a frame sync;
 //! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
 //! * [`stored_capsules`] — the capsule estimate the self-calibration starts from, embedded at build
 //!   time (`CMA_SELFCAL=path`);
 //! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
 //!
 //! The embassy application (`src/app.rs`) and the boards (`src/board.rs` for the STM32F411CE,
-//! `src/board_mps2.rs` for QEMU `mps2-an386`) only build for the target: `src/main.rs` and
-//! `src/bin/firmware-mps2.rs` put one board under the application each.
+//! `src/board_f446.rs` for the STM32F446RE, `src/board_mps2.rs` for QEMU `mps2-an386`) only build
+//! for the target: `src/main.rs`, `src/bin/firmware-f446.rs` and `src/bin/firmware-mps2.rs` put
+//! one board under the application each.
 #![no_std]
 
 // The host tests use `Vec`.
@@ -26,4 +29,5 @@ pub mod i2s_align;
 pub mod sample;
 pub mod stats;
 pub mod stored_capsules;
+pub mod tdm;
 pub mod wav;

@@ -17,8 +17,8 @@ fn defmt_panic() -> ! {
     cortex_m::asm::udf()
 }
 
-/// STM32F411CE: embassy's thread-mode executor (sleeps with `WFE`).
-#[cfg(feature = "board-f411")]
+/// STM32F411CE and STM32F446RE: embassy's thread-mode executor (sleeps with `WFE`).
+#[cfg(any(feature = "board-f411", feature = "board-f446"))]
 #[embassy_executor::main]
 async fn main(spawner: embassy_executor::Spawner) {
     crate::app::run(spawner).await;

@@ -1,0 +1,412 @@
+//! The STM32F446RE board: NUCLEO-F446RE with one 4-channel TDM ADC (TI TLV320ADC5140) on SAI1.
+//!
+//! | signal              | MCU pin (NUCLEO header) | peripheral (AF)        | TLV320ADC5140        |
+//! |---------------------|-------------------------|------------------------|----------------------|
+//! | BCLK 6.143 MHz      | PB12 (CN10-16)          | SAI1_SCK_B (AF6), out  | BCLK                 |
+//! | FSYNC 47.991 kHz    | PB9 (CN10-5)            | SAI1_FS_B (AF6), out   | FSYNC                |
+//! | TDM data            | PA9 (CN10-21, D8)       | SAI1_SD_B (AF6), in    | SDOUT                |
+//! | control SCL         | PB8 (CN10-3, D15)       | I2C1_SCL (AF4)         | SCL (2.2 kΩ to 3.3 V) |
+//! | control SDA         | PB7 (CN7-21)            | I2C1_SDA (AF4)         | SDA (2.2 kΩ to 3.3 V) |
+//! | frame stream TX     | PA2                     | USART2_TX (AF7)        | — (ST-LINK VCP)      |
+//!
+//! ADC: inputs IN1–IN4 = omni, cardioid 0°, 120°, 240° (differential microphone inputs, MICBIAS
+//! for the capsules), ADDR0 = ADDR1 = GND (I2C address 0x4C), AVDD = IOVDD = 3.3 V, AREG from its
+//! internal regulator. It is the TDM bus slave: its PLL runs from BCLK (no MCLK wire); slots 0–3
+//! carry inputs 1–4 ([`cma_firmware::tdm::SLOT_CHANNEL`]).
+//!
+//! SAI1 block B is the TDM master receiver: 4 slots of 32 bits (128 bit clocks per frame), frame
+//! sync a one-bit pulse one bit before slot 0 (the ADC's `TX_OFFSET` = 1), data sampled on the
+//! rising edge of BCLK (the ADC drives it on the falling edge), MSB first. Block A's frame-sync
+//! pin is PA3 only on this package, which the NUCLEO wires to the ST-LINK's TX (the USART2 RX of
+//! the virtual COM port), hence block B.
+//!
+//! DMA: SAI1_B on DMA2 stream 5 (channel 0), circular, one 32-bit word per slot; USART2_TX on
+//! DMA1 stream 6.
+//!
+//! It implements the board interface of [`cma_firmware::board_api`] like `board.rs` (STM32F411CE,
+//! two I2S ADCs) and `board_mps2.rs` (QEMU): [`init`] returns an [`AudioIn`] ([`SampleSource`]),
+//! a [`FrameTx`] ([`FrameWriter`]) and a [`Watchdog`]; [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
+
+use cma_core::CHANNELS;
+use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
+use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
+use core::task::Poll;
+use embassy_stm32::i2c::{self, I2c};
+use embassy_stm32::mode::{Async, Blocking};
+use embassy_stm32::sai::{self, Sai};
+use embassy_stm32::time::Hertz;
+use embassy_stm32::usart::{self, UartTx};
+use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
+use static_cell::ConstStaticCell;
+
+/// Input sample rate, Hz, as the core sees it (the frame sync runs at 47 991 Hz: see
+/// [`start_sai_clock`]).
+pub const SAMPLE_RATE_HZ: u32 = 48_000;
+/// UART baud rate of the frame stream.
+pub const UART_BAUD: u32 = 115_200;
+/// Sample frames per DSP block (0.67 ms at 48 kHz).
+pub const BLOCK_FRAMES: usize = 32;
+/// Sample frames held by the DMA ring (5.3 ms at 48 kHz): the longest the DSP task may lag behind
+/// before an overrun.
+pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
+/// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
+/// resets the chip.
+pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+
+const BLOCK_WORDS: usize = BLOCK_FRAMES * SLOTS;
+const RING_WORDS: usize = RING_FRAMES * SLOTS;
+
+bind_interrupts!(struct Irqs {
+    DMA2_STREAM5 => dma::InterruptHandler<peripherals::DMA2_CH5>;
+    DMA1_STREAM6 => dma::InterruptHandler<peripherals::DMA1_CH6>;
+});
+
+/// The DMA ring of the TDM receiver (SRAM1, reachable by DMA2).
+static RING: ConstStaticCell<[u32; RING_WORDS]> = ConstStaticCell::new([0; RING_WORDS]);
+
+/// Clock plan: HSE 8 MHz (the ST-LINK's MCO, bypass) → PLL (M 4, N 180, P 2) → SYSCLK/HCLK
+/// 180 MHz (embassy enables the over-drive the F446 needs above 168 MHz), APB1 45 MHz, APB2
+/// 90 MHz. The SAI clock comes from PLLSAI ([`start_sai_clock`]).
+fn clock_config() -> Config {
+    use rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv};
+    use rcc::{PllSource, Sysclk};
+    let mut config = Config::default();
+    config.rcc.hse = Some(Hse {
+        freq: Hertz::mhz(8),
+        mode: HseMode::Bypass,
+    });
+    config.rcc.pll_src = PllSource::HSE;
+    config.rcc.pll = Some(Pll {
+        prediv: PllPreDiv::DIV4,
+        mul: PllMul::MUL180,
+        divp: Some(PllPDiv::DIV2),
+        divq: None,
+        divr: None,
+    });
+    config.rcc.sys = Sysclk::PLL1_P;
+    config.rcc.ahb_pre = AHBPrescaler::DIV1;
+    config.rcc.apb1_pre = APBPrescaler::DIV4;
+    config.rcc.apb2_pre = APBPrescaler::DIV2;
+    config
+}
+
+/// Polls of a ready flag before it is given up on (≫ the longest wait: a PLL lock, ≈ 100 µs, or
+/// the end of a TDM frame, 21 µs, at 180 MHz).
+const POLLS: u32 = 200_000;
+
+/// Starts PLLSAI and selects it as the SAI1 clock, with the PAC: embassy-stm32 0.6 writes
+/// PLLSAICFGR without PLLSAIM on the F446 (its input divider, left at 0, an invalid value) and has
+/// no SAI1 clock selection for this chip.
+///
+/// HSE 8 MHz / M 4 = 2 MHz → × N 172 = 344 MHz → / Q 7 / PLLSAIDIVQ 1 = 49.1429 MHz SAI clock; the
+/// SAI's MCKDIV 2 (÷ 4) gives a 12.2857 MHz master clock = 256 fs, so fs = 47 991 Hz (−0.019 %,
+/// the closest to 48 kHz from 8 MHz with these dividers; the core runs at its nominal 48 kHz, the
+/// azimuth does not depend on it) and BCLK = 128 fs = 6.143 MHz for 4 slots of 32 bits.
+fn start_sai_clock() -> bool {
+    use pac::rcc::vals::{Pllm, Plln, Pllp, Pllq, Pllsaidivq, Sai1src};
+    pac::RCC.cr().modify(|w| w.set_pllsaion(false));
+    if !(0..POLLS).any(|_| !pac::RCC.cr().read().pllsairdy()) {
+        return false;
+    }
+    pac::RCC.pllsaicfgr().write(|w| {
+        w.set_pllm(Pllm::DIV4);
+        w.set_plln(Plln::MUL172);
+        w.set_pllp(Pllp::DIV8); // 43 MHz on the 48 MHz clock path, unused
+        w.set_pllq(Pllq::DIV7);
+    });
+    pac::RCC.dckcfgr().modify(|w| {
+        w.set_pllsaidivq(Pllsaidivq::DIV1);
+        w.set_sai1src(Sai1src::PLLSAI);
+    });
+    pac::RCC.cr().modify(|w| w.set_pllsaion(true));
+    (0..POLLS).any(|_| pac::RCC.cr().read().pllsairdy())
+}
+
+/// SAI1 block B's registers (the receiver).
+fn sai_block() -> pac::sai::Ch {
+    pac::SAI1.ch(1)
+}
+
+/// The four capsules: one TDM receiver (SAI1 block B) on a circular DMA ring.
+pub struct AudioIn {
+    sai: Sai<'static, peripherals::SAI1, u32>,
+    words: [u32; BLOCK_WORDS],
+}
+
+/// Restarts of the receiver tried before giving up (then the watchdog resets the chip).
+const RESYNC_ATTEMPTS: u32 = 8;
+
+impl SampleSource<BLOCK_FRAMES> for AudioIn {
+    /// Starts the DMA ring, then the receiver at a frame sync ([`AudioIn::restart_at_frame_sync`]).
+    fn start(&mut self) {
+        if self.sai.start().is_err() {
+            defmt::panic!("SAI1 block B is not a receiver");
+        }
+        self.resync();
+    }
+
+    /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
+    /// channel order ([`tdm::deinterleave`]).
+    ///
+    /// Returns [`Overrun`] (`out` not written) when samples were lost:
+    /// * the DMA lapped the ring (the HAL's overrun): the HAL continues at the DMA position of that
+    ///   moment, possibly mid-frame, so the receiver is restarted at a frame sync
+    ///   ([`AudioIn::resync`]);
+    /// * the SAI's FIFO overflowed (OVRUDR; the DMA fell behind by more than 8 words): whole
+    ///   frames are lost, but the SAI keeps the slots in place (it resumes storing, in a later
+    ///   frame, at the slot where the overrun began: the reference manual's SAI error flags), so
+    ///   the flag is only cleared.
+    async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
+        if self.sai.read(&mut self.words).await.is_err() {
+            self.resync();
+            return Err(Overrun);
+        }
+        if Self::take_fifo_overrun() {
+            return Err(Overrun);
+        }
+        tdm::deinterleave(&self.words, out);
+        Ok(())
+    }
+}
+
+impl AudioIn {
+    /// Whether the SAI's FIFO overflowed since the last call (the flag is cleared).
+    fn take_fifo_overrun() -> bool {
+        let ch = sai_block();
+        let overrun = ch.sr().read().ovrudr();
+        if overrun {
+            ch.clrfr().write(|w| w.set_covrudr(true));
+            defmt::warn!("SAI1_B: FIFO overrun");
+        }
+        overrun
+    }
+
+    /// Restarts the receiver at a frame sync until that succeeds ([`RESYNC_ATTEMPTS`]; after that
+    /// the firmware panics and the watchdog resets the chip).
+    fn resync(&mut self) {
+        for attempt in 1..=RESYNC_ATTEMPTS {
+            if self.restart_at_frame_sync() {
+                return;
+            }
+            defmt::warn!("SAI1_B restart {} failed", attempt);
+        }
+        defmt::panic!("SAI1_B cannot be restarted");
+    }
+
+    /// Restarts the receiver so that the ring continues at slot 0 of a frame
+    /// ([`tdm::restart_at_frame_sync`] on [`SaiRestart`]; the DMA ring keeps running throughout):
+    ///
+    /// 1. clear SAIEN and wait until it reads 0 (SAIEN stays set until the frame under way is
+    ///    complete); flush the FIFO: the SAI requests no more DMA transfers, so the DMA stops at
+    ///    some ring position *q*;
+    /// 2. drain the ring (the HAL's reads, polled once each, until one does not complete): the
+    ///    HAL's read position is then *q*, whatever it was (after a lapped ring the HAL restarts
+    ///    it at the DMA position of that moment, possibly mid-frame);
+    /// 3. clear the SAI's flags and set SAIEN: as master, the block starts a frame with its frame
+    ///    sync and stores slot 0 first, which the DMA writes at *q*.
+    ///
+    /// Returns `false` when the block does not stop or does not start. The bit clock stops from
+    /// the end of the frame until SAIEN is set again (a few µs); how the ADC's clock-error
+    /// detection treats such a gap (it mutes and resumes on a clock error) is not verified.
+    fn restart_at_frame_sync(&mut self) -> bool {
+        let mut rx = SaiRestart {
+            sai: &mut self.sai,
+            words: &mut self.words,
+        };
+        tdm::restart_at_frame_sync(&mut rx, RING_WORDS / BLOCK_WORDS)
+    }
+}
+
+/// SAI1 block B and its DMA ring as a [`TdmReceiver`], with the PAC for the enable bit, the FIFO
+/// and the flags (the SAI driver of embassy-stm32 0.6 has no stop, and does not expose the ring's
+/// frame alignment) and the HAL's ring reads for the drain.
+struct SaiRestart<'a> {
+    sai: &'a mut Sai<'static, peripherals::SAI1, u32>,
+    words: &'a mut [u32; BLOCK_WORDS],
+}
+
+impl TdmReceiver for SaiRestart<'_> {
+    fn stop(&mut self) -> bool {
+        let ch = sai_block();
+        ch.cr1().modify(|w| w.set_saien(false));
+        (0..POLLS).any(|_| !ch.cr1().read().saien())
+    }
+
+    fn flush_fifo(&mut self) {
+        sai_block().cr2().modify(|w| w.set_fflush(true));
+    }
+
+    fn read_block_now(&mut self) -> Poll<Result<(), ()>> {
+        embassy_futures::poll_once(self.sai.read(&mut self.words[..])).map(|r| r.map_err(|_| ()))
+    }
+
+    fn clear_flags(&mut self) {
+        sai_block().clrfr().write(|w| {
+            w.set_covrudr(true);
+            w.set_cmutedet(true);
+            w.set_cwckcfg(true);
+            w.set_ccnrdy(true);
+            w.set_cafsdet(true);
+            w.set_clfsdet(true);
+        });
+    }
+
+    fn start(&mut self) -> bool {
+        let ch = sai_block();
+        ch.cr1().modify(|w| w.set_saien(true));
+        ch.cr1().read().saien()
+    }
+}
+
+/// The frame-stream UART (transmit only, DMA): USART2 on the ST-LINK virtual COM port.
+pub struct FrameTx(UartTx<'static, Async>);
+
+impl FrameWriter for FrameTx {
+    async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+        self.0.write(bytes).await.map_err(|e| {
+            defmt::warn!("USART2: {}", e);
+            WriteError
+        })
+    }
+}
+
+/// The independent watchdog.
+pub struct Watchdog(IndependentWatchdog<'static, peripherals::IWDG>);
+
+impl board_api::Watchdog for Watchdog {
+    fn unleash(&mut self) {
+        self.0.unleash();
+    }
+
+    fn pet(&mut self) {
+        self.0.pet();
+    }
+}
+
+/// The board's drivers, ready to be moved into tasks.
+pub struct Board {
+    /// The four capsules.
+    pub audio: AudioIn,
+    /// The frame-stream UART.
+    pub uart: FrameTx,
+    /// The watchdog (not yet started).
+    pub watchdog: Watchdog,
+}
+
+/// The TLV320ADC5140's I2C address (ADDR0 = ADDR1 = GND).
+const ADC_ADDRESS: u8 = 0x4C;
+
+/// The ADC's register writes, in order (page 0): wake it with its internal regulator, TDM with
+/// 32-bit words and data one BCLK after the frame sync, inputs 1–4 to slots 0–3, inputs and
+/// outputs 1–4 enabled, then MICBIAS, ADCs and PLL powered.
+const ADC_SETUP: [(u8, u8); 11] = [
+    (0x00, 0x00), // PAGE_CFG: page 0
+    (0x02, 0x81), // SLEEP_CFG: AREG internal, awake
+    (0x07, 0x30), // ASI_CFG0: TDM, 32-bit words, FSYNC and BCLK not inverted
+    (0x08, 0x01), // ASI_CFG1: TX_OFFSET 1 (slot 0's MSB one BCLK after FSYNC)
+    (0x0B, 0x00), // ASI_CH1: slot 0
+    (0x0C, 0x01), // ASI_CH2: slot 1
+    (0x0D, 0x02), // ASI_CH3: slot 2
+    (0x0E, 0x03), // ASI_CH4: slot 3
+    (0x73, 0xF0), // IN_CH_EN: inputs 1–4
+    (0x74, 0xF0), // ASI_OUT_CH_EN: outputs 1–4
+    (0x75, 0xE0), // PWR_CFG: MICBIAS, ADC and PLL powered up
+];
+
+/// Resets and configures the ADC over I2C (the bit clock must be running: its PLL locks to it).
+/// A failure is logged; the capture then runs on whatever the data line carries.
+fn setup_adc(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
+    // SW_RESET, then ≥ 1 ms before the next access.
+    if let Err(e) = i2c.blocking_write(ADC_ADDRESS, &[0x01, 0x01]) {
+        defmt::error!("TLV320ADC5140 at {=u8:#x}: no answer ({})", ADC_ADDRESS, e);
+        return;
+    }
+    embassy_time::block_for(embassy_time::Duration::from_millis(2));
+    for (i, &(reg, value)) in ADC_SETUP.iter().enumerate() {
+        if let Err(e) = i2c.blocking_write(ADC_ADDRESS, &[reg, value]) {
+            defmt::error!("TLV320ADC5140: register {=u8:#x}: {}", reg, e);
+            return;
+        }
+        if i == 1 {
+            // ≥ 1 ms after waking before the next access.
+            embassy_time::block_for(embassy_time::Duration::from_millis(2));
+        }
+    }
+    // DEV_STS1 reports the device mode; ASI_STS the sample rate and BCLK ratio it detected.
+    let mut status = [0u8; 2];
+    let ok = i2c
+        .blocking_write_read(ADC_ADDRESS, &[0x77], &mut status[..1])
+        .and_then(|()| i2c.blocking_write_read(ADC_ADDRESS, &[0x15], &mut status[1..]));
+    match ok {
+        Ok(()) => defmt::info!(
+            "TLV320ADC5140: DEV_STS1 {=u8:#x}, ASI_STS {=u8:#x}",
+            status[0],
+            status[1]
+        ),
+        Err(e) => defmt::error!("TLV320ADC5140: status read: {}", e),
+    }
+}
+
+/// Configures clocks and peripherals.
+pub fn init() -> Board {
+    let p = embassy_stm32::init(clock_config());
+    if !start_sai_clock() {
+        defmt::panic!("PLLSAI does not lock");
+    }
+
+    let mut cfg = sai::Config::default();
+    cfg.mode = sai::Mode::Master;
+    cfg.tx_rx = sai::TxRx::Receiver;
+    cfg.protocol = sai::Protocol::Free;
+    cfg.slot_size = sai::SlotSize::Channel32;
+    cfg.slot_count = sai::word::U4(SLOTS as u8);
+    cfg.slot_enable = 0b1111;
+    cfg.first_bit_offset = sai::word::U5(0);
+    cfg.data_size = sai::DataSize::Data32;
+    cfg.stereo_mono = sai::StereoMono::Stereo;
+    cfg.bit_order = sai::BitOrder::MsbFirst;
+    cfg.frame_sync_offset = sai::FrameSyncOffset::BeforeFirstBit;
+    cfg.frame_sync_polarity = sai::FrameSyncPolarity::ActiveHigh;
+    cfg.frame_sync_active_level_length = sai::word::U7(1);
+    cfg.frame_sync_definition = sai::FrameSyncDefinition::StartOfFrame;
+    cfg.frame_length = tdm::FRAME_BITS as u16;
+    cfg.clock_strobe = sai::ClockStrobe::Rising;
+    cfg.master_clock_divider = sai::MasterClockDivider::DIV2;
+    cfg.nodiv = false;
+    cfg.fifo_threshold = sai::FifoThreshold::Quarter;
+    let (_block_a, block_b) = sai::split_subblocks(p.SAI1);
+    // The driver enables the block at once (the bit clock runs from here on, which the ADC's PLL
+    // needs); `AudioIn::start` restarts it at a frame sync with the DMA ring running.
+    let sai = Sai::new_asynchronous(
+        block_b,
+        p.PB12,
+        p.PA9,
+        p.PB9,
+        p.DMA2_CH5,
+        RING.take(),
+        Irqs,
+        cfg,
+    );
+
+    let mut i2c_cfg = i2c::Config::default();
+    i2c_cfg.frequency = Hertz::khz(400);
+    let mut i2c = I2c::new_blocking(p.I2C1, p.PB8, p.PB7, i2c_cfg);
+    setup_adc(&mut i2c);
+
+    let mut uart_cfg = usart::Config::default();
+    uart_cfg.baudrate = UART_BAUD;
+    // Note(unwrap): 115200 baud from a 45 MHz APB1 is always reachable.
+    let uart = UartTx::new(p.USART2, p.PA2, p.DMA1_CH6, Irqs, uart_cfg).unwrap();
+
+    let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
+
+    Board {
+        audio: AudioIn {
+            sai,
+            words: [0; BLOCK_WORDS],
+        },
+        uart: FrameTx(uart),
+        watchdog,
+    }
+}

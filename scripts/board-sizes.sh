@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Sizes of the three firmware images (release, fat LTO), as `llvm-size` prints them, with the flash
+# and static-RAM totals: the STM32F411CE board (default features), the STM32F446RE board
+# (`board-f446`) and the emulated board (`board-mps2`). Builds them first.
+#
+# Usage: scripts/board-sizes.sh [--readme]
+#   --readme  also writes the table into firmware/README.md, between its markers
+#             "<!-- board-sizes.sh: begin -->" and "<!-- board-sizes.sh: end -->".
+set -euo pipefail
+cd "$(dirname "$0")/.."
+TARGET=thumbv7em-none-eabihf
+OUT=${CARGO_TARGET_DIR:-target}/$TARGET/release
+SIZE="$(rustc --print sysroot)/lib/rustlib/x86_64-unknown-linux-gnu/bin/llvm-size"
+README=firmware/README.md
+
+cargo build -q -p firmware --release --target $TARGET
+cargo build -q -p firmware --release --target $TARGET --no-default-features --features board-f446
+cargo build -q -p firmware --release --target $TARGET --no-default-features --features board-mps2
+
+table=$(
+  echo "| image (board) | text | data | bss | flash (text + data) | static RAM (data + bss) |"
+  echo "|---|---:|---:|---:|---:|---:|"
+  for pair in "firmware:STM32F411CE" "firmware-f446:STM32F446RE" "firmware-mps2:QEMU mps2-an386"; do
+    bin=${pair%%:*}
+    board=${pair#*:}
+    "$SIZE" "$OUT/$bin" | awk -v bin="$bin" -v board="$board" 'NR == 2 {
+      printf "| `%s` (%s) | %d B | %d B | %d B | %.1f KB | %.1f KB |\n", bin, board, $1, $2, $3,
+        ($1 + $2) / 1024, ($2 + $3) / 1024 }'
+  done
+  echo
+  echo "Written by \`scripts/board-sizes.sh --readme\` at $(git rev-parse --short HEAD)$(git diff --quiet -- firmware || echo ' with local changes to firmware/')."
+)
+echo "$table"
+
+if [ "${1:-}" = "--readme" ]; then
+  begin='<!-- board-sizes.sh: begin -->'
+  end='<!-- board-sizes.sh: end -->'
+  grep -q "$begin" "$README" && grep -q "$end" "$README" || {
+    echo "board-sizes.sh: markers not found in $README" >&2
+    exit 1
+  }
+  TABLE="$table" awk -v begin="$begin" -v end="$end" '
+    $0 == begin { print; print ENVIRON["TABLE"]; skip = 1; next }
+    $0 == end { skip = 0 }
+    !skip { print }' "$README" > "$README.tmp"
+  mv "$README.tmp" "$README"
+fi
