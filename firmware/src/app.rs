@@ -11,8 +11,8 @@
 //!
 //! It sees the board only through the traits of [`cma_firmware::board_api`] and the board
 //! module's `init`, `SAMPLE_RATE_HZ` and `BLOCK_FRAMES`; each binary mounts its board as
-//! `crate::board` (`src/board.rs`: STM32F411CE with two I2S ADCs; `src/board_mps2.rs`: QEMU
-//! `mps2-an386`).
+//! `crate::board` (`src/board.rs`: STM32F411CE with two I2S ADCs; `src/board_f446.rs`:
+//! NUCLEO-F446RE with one 4-channel TDM ADC on SAI; `src/board_mps2.rs`: QEMU `mps2-an386`).
 //!
 //! The self-calibration starts from the estimate embedded at build time
 //! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it).
