@@ -218,6 +218,11 @@ pub struct MultiTrackState {
     slots: [Slot; MAX_TRACKS],
     candidates: [Candidate; MAX_CANDIDATES],
     next_id: u16,
+    /// Bits of the gate, preference and separation angles whose cosines `cosines` holds (`libm`'s
+    /// cosine costs about 2000 instructions on the Cortex-M4F: once per configuration, not per
+    /// frame).
+    cosine_key: [u32; 3],
+    cosines: [f32; 3],
 }
 
 impl Default for MultiTrackState {
@@ -265,6 +270,8 @@ impl MultiTrackState {
             slots: [Slot::EMPTY; MAX_TRACKS],
             candidates: [Candidate::EMPTY; MAX_CANDIDATES],
             next_id: 1,
+            cosine_key: [u32::MAX; 3],
+            cosines: [1.0; 3],
         }
     }
 
@@ -293,8 +300,18 @@ impl MultiTrackState {
         } else {
             0.0
         };
-        let cos_gate = cos_deg(cfg.gate_deg);
-        let preference = 1.0 - cos_deg(cfg.active_preference_deg);
+        let angles = [
+            cfg.gate_deg,
+            cfg.active_preference_deg,
+            cfg.min_separation_deg,
+        ];
+        let key = angles.map(f32::to_bits);
+        if key != self.cosine_key {
+            self.cosine_key = key;
+            self.cosines = angles.map(cos_deg);
+        }
+        let [cos_gate, cos_preference, _] = self.cosines;
+        let preference = 1.0 - cos_preference;
         let total: f32 = peaks
             .iter()
             .filter(|p| p.weight.is_finite() && p.weight > 0.0)
@@ -470,7 +487,7 @@ impl MultiTrackState {
         let Some((x, y)) = unit(c.x, c.y) else {
             return;
         };
-        let cos_sep = cos_deg(cfg.min_separation_deg);
+        let cos_sep = self.cosines[2];
         if self
             .slots
             .iter()
