@@ -199,9 +199,25 @@ fn bad_multi_talker_requests_are_usage_errors() {
         Ok(()) => panic!("{args:?} succeeded"),
     };
     usage(&["scene", "--out", &out, "--talkers", "4", "--synth", "2"]);
-    usage(&["scene", "--out", &out, "--talkers", "2", "--azimuths", "10,20,30"]);
+    usage(&[
+        "scene",
+        "--out",
+        &out,
+        "--talkers",
+        "2",
+        "--azimuths",
+        "10,20,30",
+    ]);
     usage(&["scene", "--out", &out, "--talkers", "2", "--azimuth", "10"]);
-    usage(&["scene", "--out", &out, "--talkers", "2", "--azimuths", "10,x"]);
+    usage(&[
+        "scene",
+        "--out",
+        &out,
+        "--talkers",
+        "2",
+        "--azimuths",
+        "10,x",
+    ]);
     // A multi-talker scene is not appended to a single-talker manifest.
     let manifest = path_in(dir.path(), "manifest.csv");
     std::fs::write(&manifest, "file,set,score_from_s,score_to_s,note\n").unwrap();
