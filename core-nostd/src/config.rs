@@ -11,6 +11,7 @@ use crate::frame_onset::FrameOnset;
 use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
 use crate::input_guard::InputGuard;
+use crate::multi_track::MultiTrack;
 use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::PeakPicker;
@@ -139,6 +140,8 @@ pub struct LocatorConfig {
     pub smoothing: Smoothing,
     /// FDIV frame reliability from the circular standard deviation over bins (§5.2.2).
     pub fdiv_spread: FdivSpread,
+    /// Several talkers at once: tracks with persistent IDs (similarity method; off by default).
+    pub multi_track: MultiTrack,
 }
 
 impl LocatorConfig {
@@ -183,6 +186,7 @@ impl LocatorConfig {
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,
+            multi_track: MultiTrack::OFF,
         }
     }
 

@@ -94,7 +94,7 @@ pub use localization::{
     power_ramp, reference_table, reliability, similarity, tables,
 };
 pub use thesis_options::{beamformer, cartesian_filter, combination, distance, frame_quality};
-pub use tracking::{grid_tracker, refine_curve, running_curve};
+pub use tracking::{grid_tracker, multi_track, refine_curve, running_curve};
 
 pub use config::{LocatorConfig, Method};
 pub use error::Error;

@@ -26,6 +26,7 @@ use crate::front_end::FrontEnd;
 use crate::grid_tracker::GridTrackerState;
 use crate::input_guard::InputGuard;
 use crate::interpolation::argmax_parabolic;
+use crate::multi_track::{MultiTrackState, TalkerTrack};
 use crate::noise_floor::NoiseFloor;
 use crate::noisy_reference::{NoiseMixing, NoisyReferences};
 use crate::peak_picker::{PeakPicker, Peaks};
@@ -93,6 +94,8 @@ pub struct Locator<'t> {
     capsules: CapsuleCalibrationState,
     /// The estimate the self-calibration starts from at every reset.
     capsule_start: CapsuleEstimate,
+    /// Talker tracks of the multi-talker stage.
+    multi: MultiTrackState,
 }
 
 impl<'t> Locator<'t> {
@@ -175,6 +178,7 @@ impl<'t> Locator<'t> {
             frame_onset: FrameOnsetState::idle(),
             capsules: CapsuleCalibrationState::idle(),
             capsule_start: CapsuleEstimate::IDEAL,
+            multi: MultiTrackState::new(),
             have_history: false,
             last_azimuth: 0.0,
             last_hop_energy: (u32::MAX, 0.0),
@@ -215,6 +219,7 @@ impl<'t> Locator<'t> {
         self.last_azimuth = 0.0;
         self.last_hop_energy = (u32::MAX, 0.0);
         self.diagnostics = FrameDiagnostics::default();
+        self.multi = MultiTrackState::new();
         Ok(())
     }
 
@@ -318,6 +323,11 @@ impl<'t> Locator<'t> {
                 ));
             }
         }
+        if c.multi_track.enabled && (c.method != Method::Similarity || !c.multi_track.is_valid()) {
+            return Err(Error::InvalidConfig(
+                "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains in [0, 1], 0 ≤ off ≤ on ≤ 1",
+            ));
+        }
         if !c.quality.is_valid() {
             return Err(Error::InvalidConfig(
                 "quality: scales must be > 0 and finite",
@@ -406,6 +416,12 @@ impl<'t> Locator<'t> {
         } else {
             0.0
         }
+    }
+
+    /// The multi-talker tracks after the last frame (live tracks, active or not; none when the
+    /// stage is off).
+    pub fn talker_tracks(&self) -> impl Iterator<Item = TalkerTrack> + '_ {
+        self.multi.tracks()
     }
 
     /// Sets the estimate the self-calibration starts from (a saved [`CapsuleEstimate`]) and applies
@@ -747,6 +763,11 @@ impl<'t> Locator<'t> {
             t.observe_estimate(&mut self.tracker, azimuth, motion_b);
         }
         self.last_azimuth = azimuth;
+        if self.config.multi_track.enabled {
+            let dominant = self.have_history.then_some((azimuth, b));
+            let mt = self.config.multi_track;
+            self.multi.update(&mt, &used[..n_used], gate, dominant);
+        }
         (azimuth, raw.unwrap_or(azimuth), b)
     }
 

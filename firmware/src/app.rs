@@ -15,11 +15,13 @@
 //! NUCLEO-F446RE with one 4-channel TDM ADC on SAI; `src/board_mps2.rs`: QEMU `mps2-an386`).
 //!
 //! The self-calibration starts from the estimate embedded at build time
-//! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it).
+//! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it). A build with
+//! `CMA_MULTI_TALKER=1` runs the multi-talker tracks and sends a `$TRK,…` line after every frame
+//! line.
 
 use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
 use cma_core::capsule_calibration::CapsuleEstimate;
-use cma_core::wire::{self, CalibrationLine, CalibrationSchedule};
+use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
 use cma_firmware::board_api::{FrameWriter, SampleSource, Watchdog as _};
 use cma_firmware::stats::Counters;
@@ -30,8 +32,15 @@ use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
 
 /// Lines waiting for the UART (≈ 85 ms of estimates at one per 21.3 ms; a calibration line, ≈ 15 ms
-/// on the wire every 10 s, fits in that slack).
-const QUEUE_LEN: usize = 4;
+/// on the wire every 10 s, fits in that slack; with the multi-talker tracks a track line, at most
+/// 98 bytes, follows each frame line: both fit a hop at 115200 baud).
+const QUEUE_LEN: usize = if MULTI_TALKER { 8 } else { 4 };
+
+/// The multi-talker tracks run and track lines are sent: the build set `CMA_MULTI_TALKER=1`.
+const MULTI_TALKER: bool = match option_env!("CMA_MULTI_TALKER") {
+    Some(v) => matches!(v.as_bytes(), [b'1']),
+    None => false,
+};
 
 /// What the DSP task hands to the UART task: raw values, formatted there.
 enum Outgoing {
@@ -46,6 +55,9 @@ enum Outgoing {
         /// `centre_sample` of the last estimate before the snapshot (0 at start).
         centre_sample: u64,
     },
+    /// The active multi-talker tracks after an estimate → one track line (its `seq` is set when
+    /// it is sent).
+    Tracks(TracksLine),
 }
 
 static OUTGOING: Channel<CriticalSectionRawMutex, Outgoing, QUEUE_LEN> = Channel::new();
@@ -80,6 +92,9 @@ fn init_locator() -> &'static mut Locator<'static> {
     let mut config = LocatorConfig::default();
     if cma_core::embedded_table::HAS_MEASURED_TABLE {
         config.capsule_calibration.enabled = false;
+    }
+    if MULTI_TALKER {
+        config.multi_track = cma_core::multi_track::MultiTrack::DEFAULT;
     }
     // Note(unwrap-like panic): the default configuration and the embedded table (checked when it was
     // built in) are valid at 48 kHz; a failure here is a build defect and panics at boot.
@@ -146,6 +161,7 @@ async fn dsp_task(
             continue;
         }
         let mut calibration_due = None;
+        let mut estimated = None;
         locator.process_block(&block, |e| {
             if OUTGOING.try_send(Outgoing::Estimate(*e)).is_err() {
                 COUNTERS.count_dropped();
@@ -153,16 +169,28 @@ async fn dsp_task(
             if schedule.due(e.centre_sample) {
                 calibration_due = Some(e.centre_sample);
             }
+            estimated = Some(e.centre_sample);
         });
+        // A block (32 sample frames) completes at most one hop (1024), so these are the tracks
+        // of that estimate.
+        if let (true, Some(centre_sample)) = (MULTI_TALKER, estimated) {
+            let tracks = TracksLine::from_tracks(locator.talker_tracks(), 0, centre_sample);
+            if OUTGOING.try_send(Outgoing::Tracks(tracks)).is_err() {
+                COUNTERS.count_dropped();
+            }
+        }
         if let Some(centre_sample) = calibration_due {
             send_calibration(locator, centre_sample);
         }
     }
 }
 
-// The UART task's one line buffer holds a line of either kind.
-const _: () =
-    assert!(wire::MAX_ANY_LINE >= wire::MAX_LINE && wire::MAX_ANY_LINE >= wire::MAX_CAL_LINE);
+// The UART task's one line buffer holds a line of any kind.
+const _: () = assert!(
+    wire::MAX_ANY_LINE >= wire::MAX_LINE
+        && wire::MAX_ANY_LINE >= wire::MAX_CAL_LINE
+        && wire::MAX_ANY_LINE >= wire::MAX_TRK_LINE
+);
 
 /// Encodes queued estimates as frame lines and self-calibration snapshots as calibration lines, and
 /// writes them to the UART.
@@ -173,6 +201,7 @@ async fn uart_task(mut uart: FrameTx) {
     // `drop`. Calibration lines have their own `seq`.
     let mut seq: u32 = 0;
     let mut calibration_seq: u32 = 0;
+    let mut tracks_seq: u32 = 0;
     loop {
         let n = match OUTGOING.receive().await {
             Outgoing::Estimate(e) => {
@@ -204,6 +233,14 @@ async fn uart_task(mut uart: FrameTx) {
                 calibration_seq = calibration_seq.wrapping_add(1);
                 match line.first_chunk_mut::<{ wire::MAX_CAL_LINE }>() {
                     Some(buf) => wire::encode_calibration(&cal, buf),
+                    None => 0, // cannot happen: see the assertion above
+                }
+            }
+            Outgoing::Tracks(mut tracks) => {
+                tracks.seq = tracks_seq;
+                tracks_seq = tracks_seq.wrapping_add(1);
+                match line.first_chunk_mut::<{ wire::MAX_TRK_LINE }>() {
+                    Some(buf) => wire::encode_tracks(&tracks, buf),
                     None => 0, // cannot happen: see the assertion above
                 }
             }

@@ -1,11 +1,11 @@
 //! cargo-fuzz target: arbitrary bytes through the line assembler and the decoders (frame line,
-//! calibration line, either kind) must never panic, and every accepted line must re-encode to
+//! calibration line, track line, any kind) must never panic, and every accepted line must re-encode to
 //! exactly the bytes received (canonical format).
 #![no_main]
 
 use cma_core::wire::{
-    decode, decode_calibration, decode_line, encode, encode_calibration, Line, LineAssembler,
-    MAX_ANY_LINE, MAX_CAL_LINE, MAX_LINE,
+    decode, decode_calibration, decode_line, decode_tracks, encode, encode_calibration,
+    encode_tracks, Line, LineAssembler, MAX_ANY_LINE, MAX_CAL_LINE, MAX_LINE, MAX_TRK_LINE,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -22,12 +22,18 @@ fn reencoded(line: &Line) -> Vec<u8> {
             let n = encode_calibration(c, &mut buf);
             buf[..n - 2].to_vec()
         }
+        Line::Tracks(t) => {
+            let mut buf = [0u8; MAX_TRK_LINE];
+            let n = encode_tracks(t, &mut buf);
+            buf[..n - 2].to_vec()
+        }
     }
 }
 
 fuzz_target!(|data: &[u8]| {
     let _ = decode(data);
     let _ = decode_calibration(data);
+    let _ = decode_tracks(data);
     let _ = decode_line(data);
     let mut asm = LineAssembler::<MAX_ANY_LINE>::new();
     asm.push_chunk(data, |line| {
@@ -45,6 +51,10 @@ fuzz_target!(|data: &[u8]| {
         match decode_calibration(line) {
             Ok(c) => assert_eq!(any, Ok(Line::Calibration(c))),
             Err(_) => assert!(!matches!(any, Ok(Line::Calibration(_)))),
+        }
+        match decode_tracks(line) {
+            Ok(t) => assert_eq!(any, Ok(Line::Tracks(t))),
+            Err(_) => assert!(!matches!(any, Ok(Line::Tracks(_)))),
         }
     });
 });

@@ -286,6 +286,10 @@ pub struct ConfigArgs {
     /// TDIV smoothing pole.
     #[arg(long)]
     pub tdiv_pole: Option<f32>,
+    /// Multi-talker tracks with persistent IDs (similarity method): on or off (the presets;
+    /// `locate --tracks` and `eval` of a multi-talker folder switch them on).
+    #[arg(long, value_enum)]
+    pub multi_talker: Option<OnOff>,
     /// Thesis alternatives (see `docs/options.md`).
     #[command(flatten)]
     pub options: crate::options_eval::OptionArgs,
@@ -465,6 +469,12 @@ impl ConfigArgs {
         }
         if let Some(v) = self.selfcal {
             c.capsule_calibration.enabled = v == OnOff::On;
+        }
+        if let Some(v) = self.multi_talker {
+            c.multi_track = match v {
+                OnOff::On => cma_core::multi_track::MultiTrack::DEFAULT,
+                OnOff::Off => cma_core::multi_track::MultiTrack::OFF,
+            };
         }
         if let Some(v) = self.selfcal_adapt {
             c.capsule_calibration.adapt = v == OnOff::On;

@@ -3,7 +3,8 @@
 //! analysis frame, `seq` from 0, the WAV's sample rate, no overruns and no drops (the host never
 //! falls behind the WAV); and, like the firmware, a calibration line (the self-calibration's state)
 //! before the first frame line and then every [`CALIBRATION_PERIOD_S`](wire::CALIBRATION_PERIOD_S)
-//! seconds of the WAV ([`CalibrationSchedule`]), after the frame line that made it due.
+//! seconds of the WAV ([`CalibrationSchedule`]), after the frame line that made it due. With the
+//! multi-talker tracks on (`--multi-talker on`) a track line follows every frame line.
 
 use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
@@ -12,7 +13,8 @@ use crate::selfcal_file;
 use crate::serial_link::{self, DEFAULT_BAUD};
 use crate::wav_io::{self, InputLayout};
 use cma_core::wire::{
-    self, CalibrationLine, CalibrationSchedule, Frame, Line, MAX_CAL_LINE, MAX_LINE,
+    self, CalibrationLine, CalibrationSchedule, Frame, Line, TracksLine, MAX_CAL_LINE, MAX_LINE,
+    MAX_TRK_LINE,
 };
 use cma_core::Locator;
 use std::path::PathBuf;
@@ -85,6 +87,28 @@ pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
     if schedule.due(0) {
         calibration(&loc, 0, &mut out);
     }
+    if config.multi_track.enabled {
+        // Sample by sample (the same estimates as in blocks), so the tracks can be read after
+        // each estimate.
+        let mut tracks_seq = 0u32;
+        for x in &rec.frames {
+            let Some(e) = loc.process_sample(*x) else {
+                continue;
+            };
+            out.push(Line::Frame(Frame::from_estimate(&e, seq, rec.rate, 0, 0)));
+            seq = seq.wrapping_add(1);
+            out.push(Line::Tracks(TracksLine::from_tracks(
+                loc.talker_tracks(),
+                tracks_seq,
+                e.centre_sample,
+            )));
+            tracks_seq = tracks_seq.wrapping_add(1);
+            if schedule.due(e.centre_sample) {
+                calibration(&loc, e.centre_sample, &mut out);
+            }
+        }
+        return Ok((rec.rate, out));
+    }
     for block in rec.frames.chunks(BLOCK) {
         let mut due = None;
         loc.process_block(block, |e| {
@@ -108,7 +132,7 @@ pub fn frames(a: &EmitArgs) -> Result<(u32, Vec<Frame>)> {
         .into_iter()
         .filter_map(|l| match l {
             Line::Frame(f) => Some(f),
-            Line::Calibration(_) => None,
+            Line::Calibration(_) | Line::Tracks(_) => None,
         })
         .collect();
     Ok((rate, frames))
@@ -120,6 +144,7 @@ pub fn run(a: &EmitArgs) -> Result<()> {
     let mut port = serial_link::open(&a.port, a.baud)?;
     let mut frame_buf = [0u8; MAX_LINE];
     let mut cal_buf = [0u8; MAX_CAL_LINE];
+    let mut tracks_buf = [0u8; MAX_TRK_LINE];
     let start = Instant::now();
     let (mut bytes, mut frames, mut calibrations) = (0usize, 0usize, 0usize);
     for line in &lines {
@@ -142,6 +167,10 @@ pub fn run(a: &EmitArgs) -> Result<()> {
                 calibrations += 1;
                 let n = wire::encode_calibration(c, &mut cal_buf);
                 &cal_buf[..n]
+            }
+            Line::Tracks(t) => {
+                let n = wire::encode_tracks(t, &mut tracks_buf);
+                &tracks_buf[..n]
             }
         };
         serial_link::write_all(port.as_mut(), &a.port, bytes_of_line, WRITE_STALL)?;

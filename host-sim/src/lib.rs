@@ -21,6 +21,8 @@ pub mod locate;
 pub mod manifest;
 pub mod metrics;
 pub mod monitor;
+pub mod multi_talker_eval;
+pub mod multi_talker_scene;
 pub mod options_eval;
 pub mod output_file;
 pub mod plots;
@@ -123,6 +125,10 @@ pub struct LocateArgs {
     /// Write the self-calibration's final estimate here (to start the next run, or the board, from).
     #[arg(long)]
     pub selfcal_out: Option<PathBuf>,
+    /// Also run the multi-talker tracks and write them here: one row per track per frame,
+    /// t_s,track_id,azimuth_deg,confidence,active.
+    #[arg(long)]
+    pub tracks: Option<PathBuf>,
     /// Localizer configuration.
     #[command(flatten)]
     pub config: ConfigArgs,
@@ -224,6 +230,9 @@ pub struct SceneArgs {
     /// Capsule imperfections of the simulated array.
     #[command(flatten)]
     pub array: array_model::ArrayArgs,
+    /// Several talkers.
+    #[command(flatten)]
+    pub multi: multi_talker_scene::MultiTalkerArgs,
 }
 
 /// Parses `args` (including the program name) and runs the command.
@@ -331,6 +340,9 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
         None => write(&mut std::io::BufWriter::new(std::io::stdout().lock()))
             .map_err(|e| SimError::io(stdout_text::STDOUT, e))?,
     }
+    if let Some(path) = &a.tracks {
+        multi_talker_eval::write_tracks_file(&a.input, a.input_layout, config, table, path)?;
+    }
     if !a.quiet {
         let summary = estimate_output::Summary::of(&rows, audio_s, started.elapsed().as_secs_f64());
         eprintln!("{}", summary.line());
@@ -339,6 +351,9 @@ fn cmd_locate(a: &LocateArgs) -> Result<()> {
 }
 
 fn cmd_eval(a: &EvalArgs) -> Result<()> {
+    if multi_talker_eval::is_multi_talker_folder(&a.dir) {
+        return multi_talker_eval::run(a);
+    }
     let config = a.config.config()?;
     let measured = a.config.measured_table()?;
     let table = a.config.table(measured.as_ref())?;
@@ -372,6 +387,9 @@ fn cmd_scene(a: &SceneArgs) -> Result<()> {
         context: "--rate".into(),
         source,
     })?;
+    if let Some(n) = a.multi.talkers {
+        return multi_talker_scene::run(a, n);
+    }
     let source = scene::load_source(a.source.as_deref(), a.synth, a.rate, a.seed)?;
     let motion = match (a.azimuth, &a.track, a.rotate) {
         (Some(az), None, None) => scene::Motion::Steps(vec![(0.0, az)]),

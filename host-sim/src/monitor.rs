@@ -29,8 +29,8 @@ use crate::locate::CSV_HEADER;
 use crate::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
 use cma_core::capsule_calibration::CAL_BANDS;
 use cma_core::wire::{
-    self, AssemblerStats, CalibrationLine, DecodeError, Frame, Line, LineAssembler, MAX_ANY_LINE,
-    MAX_LINE, PART_SCALE,
+    self, AssemblerStats, CalibrationLine, DecodeError, Frame, Line, LineAssembler, TracksLine,
+    MAX_ANY_LINE, MAX_LINE, PART_SCALE,
 };
 use cma_core::Flags;
 use cma_core::CARDIOIDS;
@@ -79,6 +79,8 @@ pub struct Counters {
     pub frames: u64,
     /// Calibration lines decoded.
     pub calibration_lines: u64,
+    /// Multi-talker track lines decoded.
+    pub track_lines: u64,
     /// Candidate lines rejected by the decoder, cut short by a `$`, or too long.
     pub corrupt_lines: u64,
     /// Sequence numbers missing between consecutive decoded frames.
@@ -116,7 +118,11 @@ impl Counters {
             self.board_dropped,
             reopens,
             self.calibration_lines
-        )
+        ) + &if self.track_lines > 0 {
+            format!(" track_lines={}", self.track_lines)
+        } else {
+            String::new()
+        }
     }
 }
 
@@ -194,6 +200,7 @@ impl Decoder {
                             counters.board_dropped = f.dropped;
                         }
                         Line::Calibration(_) => counters.calibration_lines += 1,
+                        Line::Tracks(_) => counters.track_lines += 1,
                     }
                     *bytes_since_frame = 0;
                     *text_since_frame = 0;
@@ -364,6 +371,22 @@ pub fn calibration_summary(c: &CalibrationLine) -> String {
 /// One `--plain` line for a calibration line: `selfcal`, the line's fields (`t` in board samples),
 /// the mean gains and patterns, then per band `n` and the omni and dipole parts exactly as sent.
 #[must_use]
+/// The plain text of a track line: `tracks seq=… t=… n=…` and `id<ID>=<azimuth>@<confidence>` per
+/// active talker.
+pub fn tracks_plain_line(t: &TracksLine) -> String {
+    let mut s = format!("tracks seq={} t={} n={}", t.seq, t.centre_sample, t.len);
+    for k in t.active() {
+        s.push_str(&format!(
+            " id{}={:.1}@{:.3}",
+            k.id,
+            k.azimuth_deg(),
+            k.confidence()
+        ));
+    }
+    s
+}
+
+/// The plain text of a calibration line: the estimate's mean gain and pattern per cardioid.
 pub fn calibration_plain_line(c: &CalibrationLine) -> String {
     let (gain_db, beta) = calibration_means(c);
     let mut s = format!(
@@ -536,6 +559,18 @@ const ROSE_R: i32 = 8;
 /// ring. Returns `2 R + 1` rows of `4 R + 1 + 8` characters (labels included).
 #[must_use]
 pub fn draw_rose(azimuth_deg: Option<f64>, raw_deg: Option<f64>, confidence: f64) -> Vec<String> {
+    draw_rose_with_talkers(azimuth_deg, raw_deg, confidence, &[])
+}
+
+/// [`draw_rose`] with one mark per active talker of a track line: the last digit of its ID at
+/// 0.7 of the radius in its direction.
+#[must_use]
+pub fn draw_rose_with_talkers(
+    azimuth_deg: Option<f64>,
+    raw_deg: Option<f64>,
+    confidence: f64,
+    talkers: &[(u16, f64)],
+) -> Vec<String> {
     let r = ROSE_R;
     let (w, h) = ((4 * r + 1 + 8) as usize, (2 * r + 1) as usize);
     let (cx, cy) = (2 * r + 4, r);
@@ -581,6 +616,10 @@ pub fn draw_rose(azimuth_deg: Option<f64>, raw_deg: Option<f64>, confidence: f64
     if let Some(raw) = raw_deg {
         put(&mut grid, raw, 1.0, 'x');
     }
+    for &(id, az) in talkers {
+        let digit = char::from_digit(u32::from(id % 10), 10).unwrap_or('#');
+        put(&mut grid, az, 0.7, digit);
+    }
     grid.into_iter().map(|l| l.into_iter().collect()).collect()
 }
 
@@ -591,6 +630,7 @@ struct View<'a> {
     connected: bool,
     last: Option<&'a Frame>,
     calibration: Option<&'a CalibrationLine>,
+    tracks: Option<&'a TracksLine>,
     counters: Counters,
     reopens: u64,
     fps: f64,
@@ -674,6 +714,16 @@ fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     if let Some(p) = v.recording {
         info.push(format!("recording   {}", p.display()));
     }
+    if let Some(t) = v.tracks {
+        let mut s = String::from("talkers    ");
+        if t.len == 0 {
+            s.push_str(" none speaking");
+        }
+        for k in t.active() {
+            s.push_str(&format!(" {}:{:.0}°", k.id, k.azimuth_deg()));
+        }
+        info.push(s);
+    }
     let selfcal = v.calibration.map_or_else(
         || "selfcal --  (no calibration line yet)".to_string(),
         calibration_summary,
@@ -681,7 +731,16 @@ fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     let mut lines =
         vec!["host-sim monitor — talker azimuth (0° = cardioid 1, counter-clockwise)".to_string()];
     if cols >= FULL_VIEW.0 && rows >= FULL_VIEW.1 {
-        let rose = draw_rose(az, raw, conf);
+        let talkers: Vec<(u16, f64)> = v
+            .tracks
+            .map(|t| {
+                t.active()
+                    .iter()
+                    .map(|k| (k.id, f64::from(k.azimuth_deg())))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let rose = draw_rose_with_talkers(az, raw, conf, &talkers);
         lines.push(String::new());
         for i in 0..rose.len().max(info.len()) {
             let left = rose.get(i).map_or("", String::as_str);
@@ -753,6 +812,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
     let mut meter = RateMeter::default();
     let mut last: Option<Frame> = None;
     let mut last_calibration: Option<CalibrationLine> = None;
+    let mut last_tracks: Option<TracksLine> = None;
     let mut buf = [0u8; 4096];
     let mut last_byte = Instant::now();
     let mut last_draw: Option<Instant> = None;
@@ -786,6 +846,10 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                         Line::Calibration(c) => {
                             last_calibration = Some(*c);
                             (!live).then(|| calibration_plain_line(c))
+                        }
+                        Line::Tracks(t) => {
+                            last_tracks = Some(*t);
+                            (!live).then(|| tracks_plain_line(t))
                         }
                     };
                     if let Some(text) = text {
@@ -847,6 +911,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                 connected: link.is_connected(),
                 last: last.as_ref(),
                 calibration: last_calibration.as_ref(),
+                tracks: last_tracks.as_ref(),
                 counters: dec.counters(),
                 reopens: link.reopens,
                 fps: meter.per_second(now),
@@ -1071,6 +1136,7 @@ mod tests {
             connected: true,
             last: None,
             calibration: None,
+            tracks: None,
             counters: Counters::default(),
             reopens: 0,
             fps: 0.0,
@@ -1079,6 +1145,34 @@ mod tests {
         };
         assert!(render(&v, 80, 24).contains("waiting for frames"));
         assert!(render(&v, 80, 24).contains("selfcal --  (no calibration line yet)"));
+    }
+
+    #[test]
+    fn talkers_are_marked_on_the_rose_with_their_ids() {
+        let plain = draw_rose(None, None, 0.0);
+        let marked = draw_rose_with_talkers(None, None, 0.0, &[(1, 0.0), (12, 90.0)]);
+        // ID 1 straight up (0°), ID 12 as its last digit to the left (90°).
+        let up = &marked[(ROSE_R - (0.7 * f64::from(ROSE_R)).round() as i32) as usize];
+        assert!(up.contains('1'), "{up}");
+        let left = &marked[ROSE_R as usize];
+        let col = left.find('2').expect("a 2 on the middle row");
+        assert!(col < left.find('o').unwrap(), "{left}");
+        let changed = plain.iter().zip(&marked).filter(|(a, b)| a != b).count();
+        assert_eq!(changed, 2);
+        let line = TracksLine::from_tracks(
+            [cma_core::multi_track::TalkerTrack {
+                id: 3,
+                azimuth_deg: -45.0,
+                confidence: 0.25,
+                active: true,
+            }],
+            9,
+            1024,
+        );
+        assert_eq!(
+            tracks_plain_line(&line),
+            "tracks seq=9 t=1024 n=1 id3=-45.0@0.250"
+        );
     }
 
     #[test]
@@ -1113,6 +1207,7 @@ mod tests {
             connected: false,
             last: Some(&f),
             calibration: Some(&cal),
+            tracks: None,
             counters,
             reopens: 17,
             fps: 62.5,

@@ -182,7 +182,7 @@ pub struct Scene {
 }
 
 /// Renders W, X, Y of the talker (plane wave, or through the room) for the whole timeline.
-fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec<f64>; 3] {
+pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec<f64>; 3] {
     let mut out = [vec![0.0; total], vec![0.0; total], vec![0.0; total]];
     let rate = spec.rate as f64;
     match (&spec.room, &spec.motion) {

@@ -5,7 +5,7 @@
 use cma_core::wire::Line;
 use cma_core::wire::{self, Frame, MAX_LINE};
 use host_sim::locate::{self, CSV_HEADER};
-use host_sim::monitor::{calibration_plain_line, plain_line};
+use host_sim::monitor::{calibration_plain_line, plain_line, tracks_plain_line};
 use std::collections::{BTreeSet, HashMap};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -327,14 +327,20 @@ fn emit_to_monitor_round_trip_equals_locate() {
 
 /// The lines `host-sim emit` sends for `wav` (default configuration).
 fn emit_lines(wav: &Path) -> Vec<Line> {
-    let cli = <host_sim::Cli as clap::Parser>::try_parse_from([
+    emit_lines_with(wav, &[])
+}
+
+/// The lines `host-sim emit` sends for `wav` with `extra` flags.
+fn emit_lines_with(wav: &Path, extra: &[&str]) -> Vec<Line> {
+    let mut args: Vec<std::ffi::OsString> = vec![
         "host-sim".into(),
         "emit".into(),
         wav.as_os_str().to_owned(),
         "--port".into(),
         "/dev/null".into(),
-    ])
-    .expect("parse emit args");
+    ];
+    args.extend(extra.iter().map(Into::into));
+    let cli = <host_sim::Cli as clap::Parser>::try_parse_from(args).expect("parse emit args");
     let host_sim::Command::Emit(a) = cli.command else {
         unreachable!("parsed an emit command")
     };
@@ -376,6 +382,7 @@ fn emit_to_monitor_carries_calibration_lines() {
         .map(|l| match l {
             Line::Frame(f) => plain_line(f),
             Line::Calibration(c) => calibration_plain_line(c),
+            Line::Tracks(t) => tracks_plain_line(t),
         })
         .collect();
     let got: Vec<&str> = stdout.lines().collect();
@@ -384,7 +391,7 @@ fn emit_to_monitor_carries_calibration_lines() {
         .iter()
         .filter_map(|l| match l {
             Line::Calibration(c) => Some(*c),
-            Line::Frame(_) => None,
+            Line::Frame(_) | Line::Tracks(_) => None,
         })
         .collect();
     let n_frames = sent.len() - cals.len();
@@ -405,6 +412,73 @@ fn emit_to_monitor_carries_calibration_lines() {
     let rec_text = std::fs::read_to_string(&rec).unwrap();
     assert_eq!(rec_text.lines().count(), n_frames + 1, "frames only");
     assert!(!rec_text.contains("selfcal"));
+}
+
+/// Track lines end to end: `emit --multi-talker on` on a two-talker conversation sends a track line
+/// after every frame line, the frame lines are those of the default (the tracks do not change the
+/// single estimate), and the monitor prints exactly the lines sent and counts the track lines.
+#[test]
+fn emit_to_monitor_carries_track_lines() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let wav = dir.path().join("talkers.wav");
+    let st = Command::new(BIN)
+        .args(["scene", "--talkers", "2", "--synth", "6", "--snr", "10"])
+        .args(["--azimuths", "40,-100", "--out"])
+        .arg(&wav)
+        .status()
+        .expect("run host-sim scene");
+    assert!(st.success());
+    let pty = PtyPair::start(dir.path());
+    let mon = MonitorProc::start(&pty.b, &["--exit-after-idle", "1.5"]);
+    let st = Command::new(BIN)
+        .arg("emit")
+        .arg(&wav)
+        .arg("--port")
+        .arg(&pty.a)
+        .args(["--multi-talker", "on"])
+        .status()
+        .expect("run host-sim emit");
+    assert!(st.success());
+    let (stdout, counters) = mon.finish();
+
+    let sent = emit_lines_with(&wav, &["--multi-talker", "on"]);
+    let want: Vec<String> = sent
+        .iter()
+        .map(|l| match l {
+            Line::Frame(f) => plain_line(f),
+            Line::Calibration(c) => calibration_plain_line(c),
+            Line::Tracks(t) => tracks_plain_line(t),
+        })
+        .collect();
+    assert_eq!(stdout.lines().collect::<Vec<_>>(), want);
+    let frames = |lines: &[Line]| -> Vec<Frame> {
+        lines
+            .iter()
+            .filter_map(|l| match l {
+                Line::Frame(f) => Some(*f),
+                _ => None,
+            })
+            .collect()
+    };
+    assert_eq!(frames(&sent), frames(&emit_lines(&wav)));
+    let tracks: Vec<_> = sent
+        .iter()
+        .filter_map(|l| match l {
+            Line::Tracks(t) => Some(*t),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(tracks.len(), frames(&sent).len());
+    assert!(tracks.iter().enumerate().all(|(i, t)| t.seq == i as u32));
+    let ids: BTreeSet<u16> = tracks
+        .iter()
+        .flat_map(|t| t.active().iter().map(|k| k.id))
+        .collect();
+    assert_eq!(ids, BTreeSet::from([1, 2]), "two talkers, two IDs");
+    assert_eq!(counters["track_lines"], tracks.len() as u64);
+    for k in ["corrupt_lines", "lost_frames", "garbage_bytes"] {
+        assert_eq!(counters[k], 0, "{k}");
+    }
 }
 
 /// xorshift64*: a small seeded generator, so the corruption is reproducible.

@@ -28,6 +28,9 @@ pub enum Mode {
     Pipeline,
     /// Only generate `arg` hops of the scene (subtracted from [`Mode::Pipeline`]).
     Generate,
+    /// Generate and process `arg` hops of the scene with the multi-talker tracks on
+    /// ([`multi_talker_config`]), without printing.
+    PipelineMultiTalker,
     /// Run one stage `arg` times on a fixed analysis frame ([`stages::Stage`]).
     Stage(stages::Stage),
     /// Run `(arg >> 8) & 0xfff` hops of input kind `arg & 0xff` ([`inputs::InputKind::from_index`])
@@ -45,6 +48,7 @@ impl Mode {
             1 => Mode::Pipeline,
             2 => Mode::Generate,
             8 => Mode::Hops,
+            9 => Mode::PipelineMultiTalker,
             w => Mode::Stage(stages::Stage::from_word(w)?),
         })
     }
@@ -78,9 +82,18 @@ pub const BLOCK: usize = 256;
 /// this equal to the firmware's constant).
 pub const FIRMWARE_BLOCK: usize = 32;
 
+/// The product default with the multi-talker tracks on.
+#[must_use]
+pub fn multi_talker_config() -> cma_core::LocatorConfig {
+    cma_core::LocatorConfig {
+        multi_track: cma_core::multi_track::MultiTrack::DEFAULT,
+        ..cma_core::LocatorConfig::default()
+    }
+}
+
 /// Configurations the bit-for-bit check runs (the argument of [`Mode::Check`]): the product default,
-/// the default with the active-ratio features, and the thesis configuration (one-pole curve filter
-/// instead of the grid tracker).
+/// the default with the active-ratio features, the thesis configuration (one-pole curve filter
+/// instead of the grid tracker), and the default with the multi-talker tracks on.
 #[must_use]
 pub fn check_config(variant: usize) -> Option<cma_core::LocatorConfig> {
     let mut c = cma_core::LocatorConfig::default();
@@ -88,13 +101,14 @@ pub fn check_config(variant: usize) -> Option<cma_core::LocatorConfig> {
         0 => {}
         1 => c.features = cma_core::features::FeatureKind::Active,
         2 => c = cma_core::LocatorConfig::thesis(),
+        3 => c = multi_talker_config(),
         _ => return None,
     }
     Some(c)
 }
 
 /// Number of [`check_config`] variants.
-pub const CHECK_CONFIGS: usize = 3;
+pub const CHECK_CONFIGS: usize = 4;
 
 /// Number of variants [`Mode::Check`] runs: the [`check_config`] ones, then each
 /// [`inputs::InputKind`] through the default configuration in the firmware's blocks

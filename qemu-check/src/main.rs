@@ -7,7 +7,9 @@
 //! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
 //!   instruction counting (`scripts/cost.sh`);
 //! * mode 8: runs hops of an input kind in the firmware's blocks (see [`qemu_check::Mode::Hops`]), entering
-//!   the mark functions that `scripts/cost.sh` follows for per-hop counts.
+//!   the mark functions that `scripts/cost.sh` follows for per-hop counts;
+//! * mode 9: runs the pipeline with the multi-talker tracks on `arg` times, silently (the cost of
+//!   that configuration, `scripts/cost.sh`).
 //!
 //! It exits QEMU with status 0, or 1 after a panic or a HardFault.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -20,8 +22,8 @@ mod target {
     use cortex_m_rt::{entry, exception, ExceptionFrame};
     use cortex_m_semihosting::{debug, hprintln};
     use qemu_check::{
-        inputs::InputKind, run_check, run_hops, run_scene, stages::Bench, EstimateBits, HopMarks,
-        Mode, FIRMWARE_BLOCK, MODE_ADDR,
+        inputs::InputKind, multi_talker_config, run_check, run_hops, run_scene, run_scene_with,
+        stages::Bench, EstimateBits, HopMarks, Mode, FIRMWARE_BLOCK, MODE_ADDR,
     };
 
     // The mark functions: `scripts/cost.sh` finds them by name. Their `nop`s (an `asm!` each, which
@@ -94,6 +96,11 @@ mod target {
                 core::hint::black_box(e);
             }),
             Some(Mode::Generate) => run_scene(arg, false, |_| {}),
+            Some(Mode::PipelineMultiTalker) => {
+                run_scene_with(multi_talker_config(), arg, true, |e| {
+                    core::hint::black_box(e);
+                })
+            }
             Some(Mode::Hops) => {
                 let Some(kind) = InputKind::from_index(arg as u32 & 0xff) else {
                     hprintln!("unknown input kind {}", arg & 0xff);

@@ -53,15 +53,23 @@
 //! [`encode_calibration`]'s module (`wire/calibration.rs`) and in `docs/wire-format.md`;
 //! [`decode_line`] decodes either kind, and a [`LineAssembler`] of [`MAX_ANY_LINE`] bytes holds
 //! both. [`decode`] rejects a calibration line with [`DecodeError::CalibrationLine`].
+//!
+//! A third line type, the *track line* (`$TRK,…`, its own version), carries the active
+//! multi-talker tracks of a frame ([`encode_tracks`], `wire/tracks.rs`, `docs/wire-format.md`);
+//! the frame and calibration decoders reject it with [`DecodeError::TracksLine`].
 
 use crate::estimate::{Estimate, Flags};
 use core::fmt;
 
 mod calibration;
+mod tracks;
 pub use calibration::{
     decode_calibration, decode_line, encode_calibration, part_to_wire, peaks_to_wire,
     CalibrationBand, CalibrationLine, CalibrationSchedule, Line, BAND_FIELDS, CALIBRATION_FIELDS,
     CALIBRATION_PERIOD_S, CALIBRATION_VERSION, MAX_ANY_LINE, MAX_CAL_LINE, PART_MAX, PART_SCALE,
+};
+pub use tracks::{
+    decode_tracks, encode_tracks, TracksLine, WireTrack, MAX_TRK_LINE, TRACKS_VERSION,
 };
 
 /// Format version written by [`encode`] and the only one [`decode`] accepts.
@@ -387,6 +395,23 @@ pub enum Field {
         /// Cardioid, 0 = the one looking at 0°.
         cardioid: u8,
     },
+    /// `n` (number of tracks) of a track line.
+    TrackCount,
+    /// `id` of a track line's track.
+    TrackId {
+        /// Track, 0 = first in the line.
+        track: u8,
+    },
+    /// `az` of a track line's track.
+    TrackAzimuth {
+        /// Track, 0 = first in the line.
+        track: u8,
+    },
+    /// `conf` of a track line's track.
+    TrackConfidence {
+        /// Track, 0 = first in the line.
+        track: u8,
+    },
 }
 
 impl Field {
@@ -409,6 +434,10 @@ impl Field {
             Field::Peaks { .. } => "n",
             Field::OmniPart { .. } => "a",
             Field::DipolePart { .. } => "b",
+            Field::TrackCount => "n",
+            Field::TrackId { .. } => "id",
+            Field::TrackAzimuth { .. } => "az",
+            Field::TrackConfidence { .. } => "conf",
         }
     }
 }
@@ -423,6 +452,9 @@ impl fmt::Display for Field {
             Field::OmniPart { band, cardioid } | Field::DipolePart { band, cardioid } => {
                 write!(f, " of band {band}, cardioid {cardioid}")
             }
+            Field::TrackId { track }
+            | Field::TrackAzimuth { track }
+            | Field::TrackConfidence { track } => write!(f, " of track {track}"),
             _ => Ok(()),
         }
     }
@@ -441,12 +473,14 @@ pub enum DecodeError {
     },
     /// The line does not start with `$`.
     MissingStart,
-    /// The line starts with neither `$CMA,` nor `$CAL,`.
+    /// The line starts with none of `$CMA,`, `$CAL,` and `$TRK,`.
     BadPrefix,
     /// [`decode`] was given a calibration line (`$CAL,`, see [`decode_calibration`]).
     CalibrationLine,
-    /// [`decode_calibration`] was given a frame line (`$CMA,`, see [`decode`]).
+    /// [`decode_calibration`] or [`decode_tracks`] was given a frame line (`$CMA,`, see [`decode`]).
     FrameLine,
+    /// [`decode`] or [`decode_calibration`] was given a track line (`$TRK,`, see [`decode_tracks`]).
+    TracksLine,
     /// No `*` before the checksum.
     MissingChecksum,
     /// The checksum computed over the line differs from the one transmitted.
@@ -492,8 +526,11 @@ impl fmt::Display for DecodeError {
             }
             DecodeError::MissingStart => f.write_str("line does not start with `$`"),
             DecodeError::BadPrefix => f.write_str(
-                "unknown line: starts with neither `$CMA,` (frame) nor `$CAL,` (calibration)",
+                "unknown line: starts with none of `$CMA,` (frame), `$CAL,` (calibration) and `$TRK,` (tracks)",
             ),
+            DecodeError::TracksLine => {
+                f.write_str("not a frame or calibration line (a `$TRK` multi-talker track line)")
+            }
             DecodeError::CalibrationLine => {
                 f.write_str("not a frame line (a `$CAL` self-calibration line)")
             }
@@ -580,6 +617,8 @@ fn parse_hex(s: &[u8], n: usize, field: Field) -> Result<u16, DecodeError> {
 pub const FRAME_TAG: &[u8] = b"CMA,";
 /// Tag of a calibration line ([`decode_calibration`]).
 pub const CALIBRATION_TAG: &[u8] = b"CAL,";
+/// Tag of a track line ([`decode_tracks`]).
+pub const TRACKS_TAG: &[u8] = b"TRK,";
 
 /// The checked part of a line: after `$`, `tag` and the checksum are verified, the payload
 /// `TAG,f1,…,fn` (without `$` and `*crc`). `other_tag` and `other` name the other line type.
@@ -600,6 +639,8 @@ fn checked_payload<'a>(
     if !body.starts_with(tag) {
         return Err(if body.starts_with(other_tag) {
             other
+        } else if body.starts_with(TRACKS_TAG) {
+            DecodeError::TracksLine
         } else {
             DecodeError::BadPrefix
         });

@@ -323,16 +323,19 @@ pub enum Line {
     Frame(Frame),
     /// A `$CAL` calibration line.
     Calibration(CalibrationLine),
+    /// A `$TRK` track line.
+    Tracks(super::TracksLine),
 }
 
-/// Checks and parses a line of either kind, chosen by its tag: [`decode_calibration`] for `$CAL,`,
-/// [`decode`](super::decode) for everything else (so its errors are the frame decoder's).
+/// Checks and parses a line of any kind, chosen by its tag: [`decode_calibration`] for `$CAL,`,
+/// [`decode_tracks`](super::decode_tracks) for `$TRK,`, [`decode`](super::decode) for everything
+/// else (so its errors are the frame decoder's).
 pub fn decode_line(line: &[u8]) -> Result<Line, DecodeError> {
-    if line
-        .strip_prefix(b"$")
-        .is_some_and(|b| b.starts_with(CALIBRATION_TAG))
-    {
+    let body = line.strip_prefix(b"$");
+    if body.is_some_and(|b| b.starts_with(CALIBRATION_TAG)) {
         decode_calibration(line).map(Line::Calibration)
+    } else if body.is_some_and(|b| b.starts_with(super::TRACKS_TAG)) {
+        super::decode_tracks(line).map(Line::Tracks)
     } else {
         super::decode(line).map(Line::Frame)
     }

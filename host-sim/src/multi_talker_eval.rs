@@ -1,0 +1,630 @@
+//! Multi-talker tracks on the host: `locate --tracks OUT.csv` (one row per reported track per
+//! frame) and `eval` of a folder of multi-talker scenes (`scene --talkers`), scored with
+//! association-based metrics in the style of DCASE and LOCATA.
+//!
+//! # Scoring
+//! Per analysis frame, the reported *active* tracks are matched one to one to the *speaking*
+//! talkers within [`TOLERANCE_DEG`] (the matching with the most pairs, then the least total error).
+//! A talker's frames within [`COLLAR_S`] of the start or end of one of its utterances are not
+//! scored (the forgiveness collar of speaker diarization): a match to such a talker is neither a
+//! hit nor a false alarm, and no match is not a miss. Then
+//! - **recall**: matched speaking talker-frames / scored speaking talker-frames;
+//! - **precision**: matched active track-frames / active track-frames (not counting those matched
+//!   to a talker inside its collar);
+//! - **mean error**: mean absolute azimuth error of the matches, degrees;
+//! - **ID switches per minute**: per talker, a switch whenever its match carries another ID than its
+//!   previous match; summed over talkers, per minute of recording;
+//! - **ID purity**: per track ID, the share of its matched frames on the talker it is matched to
+//!   most; pooled over IDs (Σ most / Σ all) and the worst ID with at least one second of matches.
+
+use crate::error::{Result, SimError};
+use crate::multi_talker_scene::{truth_path, MANIFEST_HEADER};
+use crate::wav_io::{read_recording, InputLayout, Recording};
+use cma_core::multi_track::{MultiTrack, TalkerTrack};
+use cma_core::{Locator, LocatorConfig, ReferenceTable};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Largest azimuth error of a match, degrees.
+pub const TOLERANCE_DEG: f64 = 20.0;
+/// Frames this close to a talker's utterance start or end are not scored for that talker, s.
+pub const COLLAR_S: f64 = 0.25;
+
+/// The tracks the core reports after one analysis frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackFrame {
+    /// Time of the frame centre, s.
+    pub t_s: f64,
+    /// Live tracks (active or not).
+    pub tracks: Vec<TalkerTrack>,
+}
+
+/// `config` with the multi-talker stage on (its settings unchanged when it already is).
+#[must_use]
+pub fn with_tracks(mut config: LocatorConfig) -> LocatorConfig {
+    if !config.multi_track.enabled {
+        config.multi_track = MultiTrack::DEFAULT;
+    }
+    config
+}
+
+/// Runs the localizer (with the multi-talker stage on) over a recording and returns the tracks of
+/// every analysis frame.
+pub fn track_frames(
+    rec: &Recording,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+) -> Result<Vec<TrackFrame>> {
+    let mut loc =
+        Locator::new(with_tracks(config), table, rec.rate).map_err(|source| SimError::Core {
+            context: "configuration".into(),
+            source,
+        })?;
+    let mut out = Vec::with_capacity(rec.frames.len() / 256 + 1);
+    for x in &rec.frames {
+        if let Some(e) = loc.process_sample(*x) {
+            out.push(TrackFrame {
+                t_s: e.time_s(rec.rate),
+                tracks: loc.talker_tracks().collect(),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// CSV header of [`write_tracks_csv`].
+pub const TRACKS_HEADER: &str = "t_s,track_id,azimuth_deg,confidence,active";
+
+/// Writes one row per reported track per frame (header [`TRACKS_HEADER`]; `active` is 1 when the
+/// talker speaks in that frame).
+pub fn write_tracks_csv(mut out: impl Write, frames: &[TrackFrame]) -> std::io::Result<()> {
+    writeln!(out, "{TRACKS_HEADER}")?;
+    for f in frames {
+        for t in &f.tracks {
+            writeln!(
+                out,
+                "{:.4},{},{:.2},{:.3},{}",
+                f.t_s,
+                t.id,
+                t.azimuth_deg,
+                t.confidence,
+                u8::from(t.active)
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// `locate --tracks PATH`: runs the stage over `input` and writes the tracks CSV.
+pub fn write_tracks_file(
+    input: &Path,
+    layout: InputLayout,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+    path: &Path,
+) -> Result<usize> {
+    let rec = read_recording(input, layout)?;
+    let frames = track_frames(&rec, config, table)?;
+    crate::wav_io::write_atomically(path, |tmp| {
+        let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;
+        let mut w = std::io::BufWriter::new(f);
+        write_tracks_csv(&mut w, &frames)
+            .and_then(|()| w.flush())
+            .map_err(|e| SimError::io(tmp, e))
+    })?;
+    Ok(frames.len())
+}
+
+/// One talker's truth (`NAME.talkerK.csv`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TalkerTruth {
+    /// Rows (t_s, azimuth °, speaking), each holding until the next.
+    pub rows: Vec<(f64, f64, bool)>,
+}
+
+impl TalkerTruth {
+    /// Parses the CSV text; errors carry the 1-based line and the reason.
+    pub fn parse(text: &str) -> std::result::Result<Self, (usize, String)> {
+        let mut lines = text.lines().enumerate();
+        match lines.next() {
+            Some((_, h)) if h.trim() == "t_s,azimuth_deg,speaking" => {}
+            _ => return Err((1, "expected the header t_s,azimuth_deg,speaking".into())),
+        }
+        let mut rows: Vec<(f64, f64, bool)> = Vec::new();
+        for (i, line) in lines {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            let num = |s: &str| s.parse::<f64>().ok().filter(|v| v.is_finite());
+            let (Some(t), Some(a), Some(on)) = (
+                f.first().and_then(|s| num(s)),
+                f.get(1).and_then(|s| num(s)),
+                f.get(2).and_then(|s| match *s {
+                    "0" => Some(false),
+                    "1" => Some(true),
+                    _ => None,
+                }),
+            ) else {
+                return Err((i + 1, format!("expected t_s,azimuth_deg,0|1, got `{line}`")));
+            };
+            if rows.last().is_some_and(|r| t <= r.0) {
+                return Err((i + 1, "times must increase".into()));
+            }
+            rows.push((t, a, on));
+        }
+        if rows.is_empty() {
+            return Err((2, "no rows".into()));
+        }
+        Ok(Self { rows })
+    }
+
+    /// Reads a truth file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = crate::text_file::read(path)?;
+        Self::parse(&text).map_err(|(line, reason)| SimError::BadCsv {
+            path: path.to_path_buf(),
+            line,
+            reason,
+        })
+    }
+
+    fn index(&self, t: f64) -> usize {
+        self.rows.partition_point(|r| r.0 <= t).saturating_sub(1)
+    }
+
+    /// Whether the talker speaks at `t`.
+    #[must_use]
+    pub fn speaking_at(&self, t: f64) -> bool {
+        self.rows[self.index(t)].2
+    }
+
+    /// Azimuth at `t`, interpolated on the circle between rows less than 0.5 s apart (a moving
+    /// talker), held otherwise.
+    #[must_use]
+    pub fn azimuth_at(&self, t: f64) -> f64 {
+        let i = self.index(t);
+        let (t0, a0, _) = self.rows[i];
+        match self.rows.get(i + 1) {
+            Some(&(t1, a1, _)) if t1 - t0 < 0.5 && t >= t0 => {
+                let d = crate::ground_truth::wrap180(a1 - a0);
+                crate::ground_truth::wrap180(a0 + d * (t - t0) / (t1 - t0))
+            }
+            _ => a0,
+        }
+    }
+
+    /// Whether `t` lies within `collar` s of a change of the speaking state.
+    #[must_use]
+    pub fn in_collar(&self, t: f64, collar: f64) -> bool {
+        self.rows
+            .windows(2)
+            .filter(|w| w[0].2 != w[1].2)
+            .any(|w| (w[1].0 - t).abs() < collar)
+    }
+}
+
+/// Counts of one scene (or pooled over scenes).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Counts {
+    /// Scored speaking talker-frames.
+    pub talker_frames: usize,
+    /// Of them matched.
+    pub matched_talker_frames: usize,
+    /// Active track-frames (without those matched to a talker inside its collar).
+    pub track_frames: usize,
+    /// Of them matched.
+    pub matched_track_frames: usize,
+    /// Sum of the matches' absolute errors, degrees.
+    pub error_sum_deg: f64,
+    /// ID switches.
+    pub id_switches: usize,
+    /// Σ over IDs of the frames on the ID's main talker.
+    pub purity_main: usize,
+    /// Σ over IDs of their matched frames.
+    pub purity_all: usize,
+    /// Recording length, s.
+    pub seconds: f64,
+}
+
+impl Counts {
+    fn add(&mut self, o: &Counts) {
+        self.talker_frames += o.talker_frames;
+        self.matched_talker_frames += o.matched_talker_frames;
+        self.track_frames += o.track_frames;
+        self.matched_track_frames += o.matched_track_frames;
+        self.error_sum_deg += o.error_sum_deg;
+        self.id_switches += o.id_switches;
+        self.purity_main += o.purity_main;
+        self.purity_all += o.purity_all;
+        self.seconds += o.seconds;
+    }
+}
+
+/// Metrics from counts.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Matched / scored speaking talker-frames.
+    pub recall: f64,
+    /// Matched / reported active track-frames.
+    pub precision: f64,
+    /// Mean absolute error of the matches, degrees.
+    pub mean_error_deg: f64,
+    /// ID switches per minute.
+    pub id_switches_per_min: f64,
+    /// Pooled ID purity.
+    pub id_purity: f64,
+    /// Purity of the worst ID with at least one second of matches (1 when there is none).
+    pub worst_id_purity: f64,
+}
+
+/// One scene's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SceneScore {
+    /// WAV path relative to the folder.
+    pub file: String,
+    /// Set name.
+    pub set: String,
+    /// Counts.
+    pub counts: Counts,
+    /// Metrics.
+    pub metrics: Metrics,
+}
+
+/// A set's (or all scenes') result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SetScore {
+    /// Set name (`all` overall).
+    pub set: String,
+    /// Scenes.
+    pub scenes: usize,
+    /// Pooled counts.
+    pub counts: Counts,
+    /// Metrics of the pooled counts (worst ID purity: the worst over the scenes).
+    pub metrics: Metrics,
+}
+
+/// The report of `eval` on a multi-talker folder.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// Matching tolerance, degrees.
+    pub tolerance_deg: f64,
+    /// Collar, s.
+    pub collar_s: f64,
+    /// Per set, then `all`.
+    pub sets: Vec<SetScore>,
+    /// Per scene.
+    pub scene_scores: Vec<SceneScore>,
+}
+
+fn ratio(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        1.0
+    } else {
+        a as f64 / b as f64
+    }
+}
+
+fn metrics(c: &Counts, worst_id_purity: f64) -> Metrics {
+    Metrics {
+        recall: ratio(c.matched_talker_frames, c.talker_frames),
+        precision: ratio(c.matched_track_frames, c.track_frames),
+        mean_error_deg: if c.matched_talker_frames > 0 {
+            c.error_sum_deg / c.matched_talker_frames as f64
+        } else {
+            0.0
+        },
+        id_switches_per_min: if c.seconds > 0.0 {
+            c.id_switches as f64 * 60.0 / c.seconds
+        } else {
+            0.0
+        },
+        id_purity: ratio(c.purity_main, c.purity_all),
+        worst_id_purity,
+    }
+}
+
+/// The best one-to-one matching of `tracks` (azimuths) to `talkers` (azimuths) within the
+/// tolerance: most pairs, then least total error. Returns (track index, talker index, error) pairs.
+#[must_use]
+pub fn best_matching(tracks: &[f64], talkers: &[f64]) -> Vec<(usize, usize, f64)> {
+    fn search(
+        i: usize,
+        tracks: &[f64],
+        talkers: &[f64],
+        used: &mut Vec<bool>,
+        cur: &mut Vec<(usize, usize, f64)>,
+        best: &mut (usize, f64, Vec<(usize, usize, f64)>),
+    ) {
+        if i == tracks.len() {
+            let err: f64 = cur.iter().map(|m| m.2).sum();
+            if cur.len() > best.0 || (cur.len() == best.0 && err < best.1) {
+                *best = (cur.len(), err, cur.clone());
+            }
+            return;
+        }
+        search(i + 1, tracks, talkers, used, cur, best);
+        for j in 0..talkers.len() {
+            if used[j] {
+                continue;
+            }
+            let e = crate::ground_truth::wrap180(tracks[i] - talkers[j]).abs();
+            if e <= TOLERANCE_DEG {
+                used[j] = true;
+                cur.push((i, j, e));
+                search(i + 1, tracks, talkers, used, cur, best);
+                cur.pop();
+                used[j] = false;
+            }
+        }
+    }
+    let mut best = (0, f64::INFINITY, Vec::new());
+    search(
+        0,
+        tracks,
+        talkers,
+        &mut vec![false; talkers.len()],
+        &mut Vec::new(),
+        &mut best,
+    );
+    best.2
+}
+
+/// Scores a scene's tracks against its talkers. Returns the counts and the worst ID purity.
+#[must_use]
+pub fn score(frames: &[TrackFrame], truths: &[TalkerTruth], seconds: f64) -> (Counts, f64) {
+    let mut c = Counts {
+        seconds,
+        ..Counts::default()
+    };
+    let mut last_id: Vec<Option<u16>> = vec![None; truths.len()];
+    let mut per_id: HashMap<u16, Vec<usize>> = HashMap::new();
+    for f in frames {
+        let active: Vec<&TalkerTrack> = f.tracks.iter().filter(|t| t.active).collect();
+        // Talkers to match: speaking ones, and those inside a collar (optional).
+        let mut cand = Vec::new();
+        for (k, t) in truths.iter().enumerate() {
+            let collar = t.in_collar(f.t_s, COLLAR_S);
+            if t.speaking_at(f.t_s) || collar {
+                cand.push((k, collar, t.azimuth_at(f.t_s)));
+            }
+        }
+        let track_az: Vec<f64> = active.iter().map(|t| f64::from(t.azimuth_deg)).collect();
+        let talker_az: Vec<f64> = cand.iter().map(|c| c.2).collect();
+        let matches = best_matching(&track_az, &talker_az);
+        let mut optional_matched = 0;
+        for &(ti, ki, err) in &matches {
+            let (k, collar, _) = cand[ki];
+            if collar {
+                optional_matched += 1;
+                continue;
+            }
+            c.matched_talker_frames += 1;
+            c.matched_track_frames += 1;
+            c.error_sum_deg += err;
+            let id = active[ti].id;
+            if last_id[k].is_some_and(|l| l != id) {
+                c.id_switches += 1;
+            }
+            last_id[k] = Some(id);
+            let v = per_id.entry(id).or_insert_with(|| vec![0; truths.len()]);
+            v[k] += 1;
+        }
+        c.talker_frames += cand.iter().filter(|x| !x.1).count();
+        c.track_frames += active.len() - optional_matched;
+    }
+    let frame_s = if frames.len() > 1 {
+        (frames[frames.len() - 1].t_s - frames[0].t_s) / (frames.len() - 1) as f64
+    } else {
+        1.0
+    };
+    let mut worst: f64 = 1.0;
+    for v in per_id.values() {
+        let all: usize = v.iter().sum();
+        let main = v.iter().copied().max().unwrap_or(0);
+        c.purity_main += main;
+        c.purity_all += all;
+        if all as f64 * frame_s >= 1.0 {
+            worst = worst.min(main as f64 / all as f64);
+        }
+    }
+    (c, worst)
+}
+
+/// One row of a multi-talker manifest.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    /// WAV path relative to the folder.
+    pub file: PathBuf,
+    /// Set name.
+    pub set: String,
+    /// Number of talkers.
+    pub talkers: usize,
+}
+
+/// Whether `dir/manifest.csv` is a multi-talker manifest (its header is [`MANIFEST_HEADER`]).
+#[must_use]
+pub fn is_multi_talker_folder(dir: &Path) -> bool {
+    std::fs::read_to_string(dir.join("manifest.csv"))
+        .is_ok_and(|t| t.lines().next().map(str::trim) == Some(MANIFEST_HEADER))
+}
+
+/// Reads a multi-talker manifest.
+pub fn read_manifest(dir: &Path) -> Result<Vec<Entry>> {
+    let path = dir.join("manifest.csv");
+    let text = crate::text_file::read(&path)?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.splitn(4, ',').collect();
+        let talkers = f.get(2).and_then(|s| s.trim().parse::<usize>().ok());
+        let (Some(file), Some(set), Some(talkers)) = (f.first(), f.get(1), talkers) else {
+            return Err(SimError::BadCsv {
+                path: path.clone(),
+                line: i + 1,
+                reason: format!("expected {MANIFEST_HEADER}, got `{line}`"),
+            });
+        };
+        out.push(Entry {
+            file: PathBuf::from(file.trim()),
+            set: set.trim().to_string(),
+            talkers,
+        });
+    }
+    Ok(out)
+}
+
+/// Scores one scene.
+pub fn evaluate_scene(
+    dir: &Path,
+    entry: &Entry,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+    layout: InputLayout,
+) -> Result<SceneScore> {
+    let wav = dir.join(&entry.file);
+    let rec = read_recording(&wav, layout)?;
+    let truths = (0..entry.talkers)
+        .map(|k| TalkerTruth::read(&truth_path(&wav, k)))
+        .collect::<Result<Vec<_>>>()?;
+    let frames = track_frames(&rec, config, table)?;
+    let seconds = rec.frames.len() as f64 / f64::from(rec.rate);
+    let (counts, worst) = score(&frames, &truths, seconds);
+    Ok(SceneScore {
+        file: entry.file.display().to_string(),
+        set: entry.set.clone(),
+        metrics: metrics(&counts, worst),
+        counts,
+    })
+}
+
+/// Scores every scene of a multi-talker folder on `threads` threads.
+pub fn evaluate(
+    dir: &Path,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+    layout: InputLayout,
+    threads: usize,
+) -> Result<Report> {
+    let entries = read_manifest(dir)?;
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(
+        (0..entries.len())
+            .map(|_| None)
+            .collect::<Vec<Option<Result<SceneScore>>>>(),
+    );
+    std::thread::scope(|s| {
+        for _ in 0..threads.clamp(1, entries.len().max(1)) {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(e) = entries.get(i) else { break };
+                let r = evaluate_scene(dir, e, config, table, layout);
+                if let Ok(mut v) = results.lock() {
+                    v[i] = Some(r);
+                }
+            });
+        }
+    });
+    let scene_scores = results
+        .into_inner()
+        .map_err(|_| SimError::Other("a scoring thread panicked".into()))?
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| Err(SimError::Other("a scene was not scored".into()))))
+        .collect::<Result<Vec<_>>>()?;
+    let mut sets: Vec<String> = Vec::new();
+    for s in &scene_scores {
+        if !sets.contains(&s.set) {
+            sets.push(s.set.clone());
+        }
+    }
+    sets.push("all".into());
+    let sets = sets
+        .into_iter()
+        .map(|name| {
+            let mut c = Counts::default();
+            let mut worst: f64 = 1.0;
+            let mut n = 0;
+            for s in scene_scores
+                .iter()
+                .filter(|s| name == "all" || s.set == name)
+            {
+                c.add(&s.counts);
+                worst = worst.min(s.metrics.worst_id_purity);
+                n += 1;
+            }
+            SetScore {
+                set: name,
+                scenes: n,
+                metrics: metrics(&c, worst),
+                counts: c,
+            }
+        })
+        .collect();
+    Ok(Report {
+        tolerance_deg: TOLERANCE_DEG,
+        collar_s: COLLAR_S,
+        sets,
+        scene_scores,
+    })
+}
+
+/// The report as a text table.
+#[must_use]
+pub fn format_table(r: &Report) -> String {
+    let mut s = format!(
+        "multi-talker scenes: active tracks matched to speaking talkers within {}°, collar {} s\n\
+         {:<14} {:>6} {:>8} {:>10} {:>9} {:>11} {:>10} {:>10}\n",
+        r.tolerance_deg,
+        r.collar_s,
+        "set",
+        "scenes",
+        "recall",
+        "precision",
+        "error °",
+        "switch/min",
+        "ID purity",
+        "worst ID"
+    );
+    for x in &r.sets {
+        let m = &x.metrics;
+        s.push_str(&format!(
+            "{:<14} {:>6} {:>7.1}% {:>9.1}% {:>9.2} {:>11.2} {:>9.1}% {:>9.1}%\n",
+            x.set,
+            x.scenes,
+            100.0 * m.recall,
+            100.0 * m.precision,
+            m.mean_error_deg,
+            m.id_switches_per_min,
+            100.0 * m.id_purity,
+            100.0 * m.worst_id_purity
+        ));
+    }
+    s
+}
+
+/// `host-sim eval` on a multi-talker folder.
+pub fn run(a: &crate::EvalArgs) -> Result<()> {
+    let config = a.config.config()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if a.plots.is_some() {
+        return Err(SimError::Usage(
+            "--plots: not available for multi-talker folders".into(),
+        ));
+    }
+    let report = evaluate(&a.dir, config, table, a.input_layout, threads)?;
+    if a.json {
+        let json =
+            serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?;
+        crate::stdout_text::print_text(&format!("{json}\n"))
+    } else {
+        crate::stdout_text::print_text(&format_table(&report))
+    }
+}

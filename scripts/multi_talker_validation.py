@@ -1,0 +1,217 @@
+#!/usr/bin/env python3
+"""Builds a multi-talker validation folder in image-source rooms, scores it with `host-sim eval`
+and writes docs/multi-talker.md's tables from the result (never edit those by hand).
+
+Per scene the script draws a shoebox (4-8 x 3.5-7 x 2.5-3.2 m) with RT60 uniform in 0.3-0.55 s,
+places the array >= 1 m from the walls at 1.2-1.6 m height and 2 or 3 talkers 1-2 m away
+(horizontally) at 1.2-1.8 m height, >= 0.5 m from the walls, at azimuths >= 60 degrees apart. Each
+talker gets its own first-order AmbiX room response from pyroomacoustics' image sources
+(scripts/ism_validation.py's `image_source_ambix`, physical 1/r gain), and `host-sim scene
+--talkers` renders the conversation (speech clips from shared/data/src/speech, one speaker per
+talker) with 3-D diffuse pink noise:
+
+* turns2, turns3: 2 or 3 talkers taking turns (utterances of 1-3 s, gaps 0.2-0.8 s, one in five
+  followed by a short overlap), 6 dB diffuse noise, 30 s;
+* together2: two talkers speaking at once at equal level, 10 dB, 15 s;
+* moving2: turns of 2 talkers, 6 dB, the first circling at 10 degrees/s (its room response is
+  rotated with it), 30 s.
+
+Then `host-sim eval OUT_DIR --json` scores the tracks, and the single-talker eval folder is scored
+with the stage off and on (the single-azimuth estimate must be identical).
+
+Needs Python 3 with numpy, scipy and pyroomacoustics and a release build of host-sim. Not part of
+the test suite.
+
+Usage: scripts/multi_talker_validation.py OUT_DIR [--seeds N] [--seed S] [--doc docs/multi-talker.md]
+"""
+
+import argparse
+import glob
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import scipy.io.wavfile as wavfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import ism_validation as ism  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HOST_SIM = os.environ.get("HS", os.path.join(ROOT, "target", "release", "host-sim"))
+SPEECH = os.environ.get("SPEECH", os.path.join(ROOT, "..", "shared", "data", "src", "speech"))
+EVAL = os.environ.get("EVAL", os.path.join(ROOT, "..", "shared", "data", "eval"))
+FS = 16000
+
+# (set, talkers, talk, snr dB, seconds, move deg/s)
+KINDS = [
+    ("turns2", 2, "turns", 6, 30, None),
+    ("turns3", 3, "turns", 6, 30, None),
+    ("together2", 2, "together", 10, 15, None),
+    ("moving2", 2, "turns", 6, 30, 10.0),
+]
+
+# The targets: (set, recall, precision, mean error, purity, switches per minute).
+TARGETS = {
+    "turns2": (0.90, 0.95, 3.0, 0.95, 1.0),
+    "turns3": (0.90, 0.95, 3.0, 0.95, 1.0),
+    "together2": (0.80, 0.90, 5.0, 0.90, None),
+}
+
+
+def room(rng):
+    """Room dimensions, RT60, array position, and a function placing a talker at an azimuth."""
+    while True:
+        dims = np.array([rng.uniform(4, 8), rng.uniform(3.5, 7), rng.uniform(2.5, 3.2)])
+        rt60 = rng.uniform(0.3, 0.55)
+        try:
+            ism.pra.inverse_sabine(rt60, dims)
+        except ValueError:
+            continue
+        rx = np.array([rng.uniform(1.0, dims[0] - 1.0), rng.uniform(1.0, dims[1] - 1.0),
+                       rng.uniform(1.2, 1.6)])
+        return dims, rt60, rx
+
+
+def talker_positions(rng, dims, rx, n):
+    """n talker positions (1-2 m, >= 0.5 m from the walls) at azimuths >= 60 degrees apart."""
+    for _ in range(10000):
+        az = rng.uniform(0, 360, n)
+        if any(abs(ism.wrap180(az[i] - az[j])) < 60 for i in range(n) for j in range(i + 1, n)):
+            continue
+        pos = []
+        for a in az:
+            r = rng.uniform(1.0, 2.0)
+            p = rx + r * np.array([np.cos(np.radians(a)), np.sin(np.radians(a)), 0.0])
+            p[2] = rng.uniform(1.2, 1.8)
+            pos.append(p)
+        if all(np.all(p > 0.5) and np.all(p < dims - 0.5) for p in pos):
+            return az, pos
+    raise RuntimeError("no talker placement")
+
+
+def run(args, **kw):
+    return subprocess.run(args, check=True, capture_output=True, text=True, **kw)
+
+
+def build(out, seeds, seed0):
+    speech = sorted(glob.glob(os.path.join(SPEECH, "*.wav")))
+    if not speech:
+        sys.exit(f"no speech in {SPEECH}")
+    os.makedirs(out, exist_ok=True)
+    manifest = os.path.join(out, "manifest.csv")
+    if os.path.exists(manifest):
+        os.remove(manifest)
+    rng = np.random.default_rng(seed0)
+    rooms = []
+    for kind, n, talk, snr, seconds, move in KINDS:
+        for s in range(seeds):
+            dims, rt60, rx = room(rng)
+            az, pos = talker_positions(rng, dims, rx, n)
+            name = os.path.join(out, f"{kind}_{s:02d}.wav")
+            cmd = [HOST_SIM, "scene", "--talkers", str(n), "--talk", talk, "--synth", str(seconds),
+                   "--snr", str(snr), "--seed", str(seed0 + 100 * s + n), "--out", name,
+                   "--azimuths", ",".join(f"{ism.wrap180(a):.1f}" for a in az),
+                   "--manifest", manifest, "--set", kind, "--rir-length", "0.8"]
+            cmd += ["--talker-rir-direct", ",".join(f"{ism.wrap180(a):.1f}" for a in az)]
+            if move is not None:
+                cmd += ["--move-first", str(move)]
+            voices = rng.permutation(len(speech))
+            for k, p in enumerate(pos):
+                rir = os.path.join(out, f"rir{k}.wav")
+                h = ism.image_source_ambix(dims, rt60, rx, p, lambda r: 4.0 * np.pi * r)
+                wavfile.write(rir, FS, h.astype(np.float32))
+                cmd += ["--talker-rir", rir, "--talker-source", speech[voices[k]]]
+            run(cmd)
+            for k in range(n):
+                os.remove(os.path.join(out, f"rir{k}.wav"))
+            rooms.append((kind, rt60))
+            print(name, flush=True)
+    return rooms
+
+
+def pct(v):
+    return f"{100 * v:.1f} %"
+
+
+def write_doc(doc, report, rooms, seeds, seed0, single_same):
+    sets = {s["set"]: s for s in report["sets"]}
+    lines = [
+        "<!-- generated by scripts/multi_talker_validation.py — do not edit -->",
+        "## Measured (generated)",
+        "",
+        f"{seeds} scenes per kind (seed {seed0}), image-source rooms with RT60 "
+        f"{min(r for _, r in rooms):.2f}–{max(r for _, r in rooms):.2f} s, talkers 1–2 m away and "
+        "≥ 60° apart; matched within "
+        f"{report['tolerance_deg']:.0f}°, collar {report['collar_s']} s "
+        "(`scripts/multi_talker_validation.py OUT`).",
+        "",
+        "| set | scenes | recall | precision | mean error | ID switches / min | ID purity | worst ID |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, s in sets.items():
+        m = s["metrics"]
+        lines.append(
+            f"| {name} | {s['scenes']} | {pct(m['recall'])} | {pct(m['precision'])} | "
+            f"{m['mean_error_deg']:.2f}° | {m['id_switches_per_min']:.2f} | {pct(m['id_purity'])} | "
+            f"{pct(m['worst_id_purity'])} |")
+    lines += ["", "Against the targets (✓ met, ✗ missed):", "",
+              "| set | recall | precision | mean error | ID purity | switches / min |",
+              "|---|---|---|---|---|---|"]
+    for name, (rec, prec, err, pur, sw) in TARGETS.items():
+        if name not in sets:
+            continue
+        m = sets[name]["metrics"]
+        mark = lambda ok: "✓" if ok else "✗"  # noqa: E731
+        cells = [
+            f"{mark(m['recall'] >= rec)} ≥ {pct(rec)}",
+            f"{mark(m['precision'] >= prec)} ≥ {pct(prec)}",
+            f"{mark(m['mean_error_deg'] <= err)} ≤ {err:.0f}°",
+            f"{mark(m['id_purity'] >= pur)} ≥ {pct(pur)}",
+            "—" if sw is None else f"{mark(m['id_switches_per_min'] <= sw)} ≤ {sw:.0f}",
+        ]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", "Per scene:", "",
+              "| scene | recall | precision | mean error | switches / min | ID purity |",
+              "|---|---|---|---|---|---|"]
+    for s in report["scene_scores"]:
+        m = s["metrics"]
+        lines.append(f"| {s['file']} | {pct(m['recall'])} | {pct(m['precision'])} | "
+                     f"{m['mean_error_deg']:.2f}° | {m['id_switches_per_min']:.2f} | "
+                     f"{pct(m['id_purity'])} |")
+    lines += ["", "Single-talker eval folder with the stage on: the `eval --json` report is "
+              + ("identical to the one with the stage off." if single_same
+                 else "**different** from the one with the stage off."), ""]
+    text = open(doc).read() if os.path.exists(doc) else ""
+    marker = "<!-- generated by scripts/multi_talker_validation.py — do not edit -->"
+    head = text.split(marker)[0] if marker in text else text
+    with open(doc, "w") as f:
+        f.write(head + "\n".join(lines))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("out")
+    p.add_argument("--seeds", type=int, default=4, help="scenes per kind (default 4)")
+    p.add_argument("--seed", type=int, default=3000)
+    p.add_argument("--doc", default=os.path.join(ROOT, "docs", "multi-talker.md"))
+    p.add_argument("--no-build", action="store_true", help="score an existing folder")
+    args = p.parse_args()
+    if not os.access(HOST_SIM, os.X_OK):
+        sys.exit(f"no host-sim at {HOST_SIM} (cargo build --release -p host-sim)")
+    if args.no_build:
+        rooms = json.load(open(os.path.join(args.out, "rooms.json")))
+    else:
+        rooms = build(args.out, args.seeds, args.seed)
+        json.dump(rooms, open(os.path.join(args.out, "rooms.json"), "w"))
+    report = json.loads(run([HOST_SIM, "eval", args.out, "--json"]).stdout)
+    json.dump(report, open(os.path.join(args.out, "report.json"), "w"), indent=1)
+    off = run([HOST_SIM, "eval", EVAL, "--json"]).stdout
+    on = run([HOST_SIM, "eval", EVAL, "--json", "--multi-talker", "on"]).stdout
+    write_doc(args.doc, report, rooms, args.seeds, args.seed, off == on)
+    print(run([HOST_SIM, "eval", args.out]).stdout)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,238 @@
+//! Several talkers: conversations made by `host-sim scene --talkers`, tracked by the core's
+//! multi-talker stage and scored by `host-sim eval`'s association metrics. The thresholds are the
+//! measured values of these scenes with a margin (docs/multi-talker.md has the reverberant ones).
+
+use cma_core::{LocatorConfig, ReferenceTable};
+use cma_tests::{host_sim, path_in};
+use host_sim::multi_talker_eval::{evaluate, Metrics, TalkerTruth, TRACKS_HEADER};
+use host_sim::wav_io::InputLayout;
+use std::path::Path;
+
+const SPEECH: [&str; 2] = [
+    "../host-sim/fixtures/cmu_arctic_us_aew_a0001.wav",
+    "../host-sim/fixtures/cmu_arctic_us_axb_a0004.wav",
+];
+
+fn scene(dir: &Path, name: &str, set: &str, extra: &[&str]) {
+    let out = path_in(dir, name);
+    let manifest = path_in(dir, "manifest.csv");
+    let mut args = vec![
+        "scene",
+        "--out",
+        out.as_str(),
+        "--manifest",
+        manifest.as_str(),
+        "--set",
+        set,
+    ];
+    args.extend_from_slice(extra);
+    host_sim(&args).unwrap_or_else(|e| panic!("scene {name}: {e}"));
+}
+
+fn set_metrics(dir: &Path, set: &str) -> Metrics {
+    let report = evaluate(
+        dir,
+        LocatorConfig::default(),
+        ReferenceTable::ideal_5deg(),
+        InputLayout::Cma1,
+        2,
+    )
+    .expect("the folder evaluates");
+    report
+        .sets
+        .into_iter()
+        .find(|s| s.set == set)
+        .unwrap_or_else(|| panic!("no set {set}"))
+        .metrics
+}
+
+#[test]
+fn talkers_taking_turns_are_tracked_with_one_id_each() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in ["1", "2"] {
+        scene(
+            dir.path(),
+            &format!("two{seed}.wav"),
+            "turns",
+            &[
+                "--talkers",
+                "2",
+                "--synth",
+                "12",
+                "--snr",
+                "6",
+                "--seed",
+                seed,
+                "--talker-source",
+                SPEECH[0],
+                "--talker-source",
+                SPEECH[1],
+            ],
+        );
+    }
+    scene(
+        dir.path(),
+        "three.wav",
+        "turns",
+        &[
+            "--talkers",
+            "3",
+            "--synth",
+            "12",
+            "--snr",
+            "6",
+            "--seed",
+            "3",
+            "--azimuths",
+            "-120,0,110",
+        ],
+    );
+    let m = set_metrics(dir.path(), "turns");
+    assert!(m.recall >= 0.95, "{m:?}");
+    assert!(m.precision >= 0.88, "{m:?}");
+    assert!(m.mean_error_deg <= 2.0, "{m:?}");
+    assert!(m.id_switches_per_min <= 1.0, "{m:?}");
+    assert!(m.id_purity >= 0.97, "{m:?}");
+}
+
+#[test]
+fn two_talkers_at_once_are_both_tracked() {
+    let dir = tempfile::tempdir().unwrap();
+    for seed in ["1", "2"] {
+        scene(
+            dir.path(),
+            &format!("both{seed}.wav"),
+            "together",
+            &[
+                "--talkers",
+                "2",
+                "--talk",
+                "together",
+                "--synth",
+                "8",
+                "--snr",
+                "10",
+                "--seed",
+                seed,
+                "--talker-source",
+                SPEECH[0],
+                "--talker-source",
+                SPEECH[1],
+            ],
+        );
+    }
+    let m = set_metrics(dir.path(), "together");
+    assert!(m.recall >= 0.70, "{m:?}");
+    assert!(m.precision >= 0.95, "{m:?}");
+    assert!(m.mean_error_deg <= 3.5, "{m:?}");
+    assert!(m.id_purity >= 0.95, "{m:?}");
+}
+
+#[test]
+fn truth_files_tracks_csv_and_the_single_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    scene(
+        dir.path(),
+        "c.wav",
+        "moving",
+        &[
+            "--talkers",
+            "2",
+            "--synth",
+            "6",
+            "--snr",
+            "10",
+            "--azimuths",
+            "30,-90",
+            "--move-first",
+            "20",
+        ],
+    );
+    // One truth file per talker; the moving one has a row every 50 ms and starts at 30°.
+    let first = TalkerTruth::read(&dir.path().join("c.talker1.csv")).unwrap();
+    let second = TalkerTruth::read(&dir.path().join("c.talker2.csv")).unwrap();
+    assert!(first.rows.len() > 100 && (first.rows[0].1 - 30.0).abs() < 1e-9);
+    assert!((first.azimuth_at(1.0) - 50.0).abs() < 0.5);
+    assert!(second.rows.iter().all(|r| r.1 == -90.0));
+    assert!(second.rows.iter().any(|r| r.2) && first.rows.iter().any(|r| r.2));
+    assert!(dir.path().join("c.wav").exists() && !dir.path().join("c.talker3.csv").exists());
+
+    // locate --tracks: the documented columns, IDs from 1, active 0/1; and the single-azimuth CSV
+    // is the same with the stage on and off.
+    let wav = path_in(dir.path(), "c.wav");
+    let (tracks, on, off) = (
+        path_in(dir.path(), "tracks.csv"),
+        path_in(dir.path(), "on.csv"),
+        path_in(dir.path(), "off.csv"),
+    );
+    host_sim(&["locate", &wav, "-q", "--csv", &on, "--tracks", &tracks]).unwrap();
+    host_sim(&["locate", &wav, "-q", "--csv", &off, "--multi-talker", "off"]).unwrap();
+    assert_eq!(
+        std::fs::read(&on).unwrap(),
+        std::fs::read(&off).unwrap(),
+        "the single-azimuth estimate does not depend on the multi-talker stage"
+    );
+    let text = std::fs::read_to_string(&tracks).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(TRACKS_HEADER));
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    assert!(!rows.is_empty());
+    for r in &rows {
+        assert_eq!(r.len(), 5, "{r:?}");
+        let id: u16 = r[1].parse().unwrap();
+        let az: f64 = r[2].parse().unwrap();
+        let conf: f64 = r[3].parse().unwrap();
+        assert!(id >= 1 && az > -180.0 && az <= 180.0 && (0.0..=1.0).contains(&conf));
+        assert!(r[4] == "0" || r[4] == "1");
+    }
+    assert!(rows.iter().any(|r| r[1] == "1") && rows.iter().any(|r| r[1] == "2"));
+}
+
+#[test]
+fn bad_multi_talker_requests_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = path_in(dir.path(), "x.wav");
+    let usage = |args: &[&str]| match host_sim(args) {
+        Err(e) => assert_eq!(e.exit_code(), 2, "{args:?}: {e}"),
+        Ok(()) => panic!("{args:?} succeeded"),
+    };
+    usage(&["scene", "--out", &out, "--talkers", "4", "--synth", "2"]);
+    usage(&[
+        "scene",
+        "--out",
+        &out,
+        "--talkers",
+        "2",
+        "--azimuths",
+        "10,20,30",
+    ]);
+    usage(&["scene", "--out", &out, "--talkers", "2", "--azimuth", "10"]);
+    usage(&[
+        "scene",
+        "--out",
+        &out,
+        "--talkers",
+        "2",
+        "--azimuths",
+        "10,x",
+    ]);
+    // A multi-talker scene is not appended to a single-talker manifest.
+    let manifest = path_in(dir.path(), "manifest.csv");
+    std::fs::write(&manifest, "file,set,score_from_s,score_to_s,note\n").unwrap();
+    usage(&[
+        "scene",
+        "--out",
+        &out,
+        "--talkers",
+        "2",
+        "--synth",
+        "2",
+        "--manifest",
+        &manifest,
+    ]);
+    // A truth file with a bad row names its line.
+    let bad = TalkerTruth::parse("t_s,azimuth_deg,speaking\n0,10,1\n1,20,yes\n");
+    assert_eq!(bad.map_err(|e| e.0), Err(3));
+}
