@@ -323,6 +323,11 @@ impl<'t> Locator<'t> {
                 ));
             }
         }
+        if c.multi_track.enabled && !cfg!(feature = "multi-talker") {
+            return Err(Error::InvalidConfig(
+                "multi-talker tracks: cma-core was built without its `multi-talker` feature",
+            ));
+        }
         if c.multi_track.enabled && (c.method != Method::Similarity || !c.multi_track.is_valid()) {
             return Err(Error::InvalidConfig(
                 "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains in [0, 1], 0 ≤ off ≤ on ≤ 1",
@@ -763,6 +768,7 @@ impl<'t> Locator<'t> {
             t.observe_estimate(&mut self.tracker, azimuth, motion_b);
         }
         self.last_azimuth = azimuth;
+        #[cfg(feature = "multi-talker")]
         if self.config.multi_track.enabled {
             let dominant = self.have_history.then_some((azimuth, b));
             let mt = self.config.multi_track;

@@ -16,8 +16,8 @@
 //!
 //! The self-calibration starts from the estimate embedded at build time
 //! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it). A build with
-//! `CMA_MULTI_TALKER=1` runs the multi-talker tracks and sends a `$TRK,…` line after every frame
-//! line.
+//! the `multi-talker` feature runs the multi-talker tracks and sends a `$TRK,…` line after every
+//! frame line.
 
 use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
 use cma_core::capsule_calibration::CapsuleEstimate;
@@ -36,11 +36,9 @@ use static_cell::StaticCell;
 /// 98 bytes, follows each frame line: both fit a hop at 115200 baud).
 const QUEUE_LEN: usize = if MULTI_TALKER { 8 } else { 4 };
 
-/// The multi-talker tracks run and track lines are sent: the build set `CMA_MULTI_TALKER=1`.
-const MULTI_TALKER: bool = match option_env!("CMA_MULTI_TALKER") {
-    Some(v) => matches!(v.as_bytes(), [b'1']),
-    None => false,
-};
+/// The multi-talker tracks run and track lines are sent: the build enabled the `multi-talker`
+/// feature.
+const MULTI_TALKER: bool = cfg!(feature = "multi-talker");
 
 /// What the DSP task hands to the UART task: raw values, formatted there.
 enum Outgoing {
