@@ -25,12 +25,12 @@ pub use io::{
 pub use localization::{beam, locate};
 pub use simulation::{array_model, scene, signal};
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Subcommand};
 use error::{Result, SimError};
 use std::ffi::OsString;
 
 /// Command line of `host-sim`.
-#[derive(Debug, Parser)]
+#[derive(Debug, clap::Parser)]
 #[command(
     name = "host-sim",
     version,
@@ -82,6 +82,76 @@ pub enum Command {
     /// Measure a reference table from sweep recordings at known azimuths.
     #[command(allow_negative_numbers = true)]
     Calibrate(commands::calibrate::CalibrateArgs),
+    /// Print the localizer configuration (preset, file and flags applied) as a configuration file.
+    #[command(allow_negative_numbers = true)]
+    Config(commands::config::ConfigCmdArgs),
+}
+
+/// One example per command, shown at the end of its `--help`.
+const EXAMPLES: &[(&str, &str)] = &[
+    (
+        "locate",
+        "host-sim locate talk.wav --config room.toml --csv talk.csv",
+    ),
+    (
+        "eval",
+        "host-sim eval shared/data/eval --preset thesis --json",
+    ),
+    (
+        "scene",
+        "host-sim scene --synth 5 --azimuth 60 --snr 10 --out s60.wav",
+    ),
+    (
+        "monitor",
+        "host-sim monitor --port /dev/ttyUSB0 --record board.csv",
+    ),
+    (
+        "emit",
+        "host-sim emit talk.wav --port ./ttyA --config room.toml",
+    ),
+    ("score", "host-sim score board.csv s60.pos.csv"),
+    (
+        "beam",
+        "host-sim beam talk.wav --out beam.wav --pattern 0.75",
+    ),
+    (
+        "beam-report",
+        "host-sim beam-report shared/data/src --snr 0",
+    ),
+    (
+        "options-eval",
+        "host-sim options-eval shared/data/eval --base \"--config room.toml\"",
+    ),
+    (
+        "distance-report",
+        "host-sim distance-report shared/data/src",
+    ),
+    ("sweep", "host-sim sweep --out sweep.wav --seconds 5"),
+    (
+        "calibrate",
+        "host-sim calibrate --dir cal/ --sweep sweep.wav --out array.cmat",
+    ),
+    (
+        "config",
+        "host-sim config --preset thesis --tracker grid > mine.toml",
+    ),
+];
+
+/// The command line of `host-sim` as clap parses it: [`Cli`] with every configuration flag's help
+/// showing its file key and preset values ([`config_args::annotate`]) and an example per command.
+#[must_use]
+pub fn command() -> clap::Command {
+    let mut cmd = Cli::command();
+    for (name, example) in EXAMPLES {
+        cmd = cmd.mut_subcommand(*name, |s| {
+            let after = s
+                .get_after_help()
+                .map(|h| format!("{h}\n\n"))
+                .unwrap_or_default();
+            config_args::annotate(s).after_help(format!("{after}Example:\n  {example}"))
+        });
+    }
+    cmd
 }
 
 /// Parses `args` (including the program name) and runs the command.
@@ -90,7 +160,10 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
-    let cli = match Cli::try_parse_from(args) {
+    let cli = match command()
+        .try_get_matches_from(args)
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(c) => c,
         Err(e)
             if matches!(
@@ -115,5 +188,6 @@ where
         Command::DistanceReport(a) => commands::distance_report::run(&a),
         Command::Sweep(a) => commands::sweep::run(&a),
         Command::Calibrate(a) => commands::calibrate::run(&a),
+        Command::Config(a) => commands::config::run(&a),
     }
 }

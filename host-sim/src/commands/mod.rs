@@ -4,6 +4,7 @@
 pub mod beam;
 pub mod beam_report;
 pub mod calibrate;
+pub mod config;
 pub mod distance_report;
 pub mod emit;
 pub mod eval;
