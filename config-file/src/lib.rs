@@ -201,7 +201,7 @@ fn blame(base: &Table, merged: &Table, message: String) -> ConfigError {
             restore(&mut t, base, key);
             Value::Table(t)
                 .try_into::<LocatorConfig>()
-                .map_or(false, |c| core_check(&c).is_ok())
+                .is_ok_and(|c| core_check(&c).is_ok())
         })
         .collect();
     match culprits.as_slice() {
