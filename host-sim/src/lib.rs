@@ -138,17 +138,18 @@ const EXAMPLES: &[(&str, &str)] = &[
 ];
 
 /// The command line of `host-sim` as clap parses it: [`Cli`] with every configuration flag's help
-/// showing its file key and preset values ([`config_args::annotate`]) and an example per command.
+/// showing its file key and preset values ([`config_args::flag_notes`]) and an example per command.
 #[must_use]
 pub fn command() -> clap::Command {
     let mut cmd = Cli::command();
+    let notes = config_args::flag_notes();
     for (name, example) in EXAMPLES {
         cmd = cmd.mut_subcommand(*name, |s| {
             let after = s
                 .get_after_help()
                 .map(|h| format!("{h}\n\n"))
                 .unwrap_or_default();
-            config_args::annotate(s).after_help(format!("{after}Example:\n  {example}"))
+            config_args::annotate(s, &notes).after_help(format!("{after}Example:\n  {example}"))
         });
     }
     cmd

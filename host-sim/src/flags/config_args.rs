@@ -669,28 +669,38 @@ pub const FLAG_KEYS: &[(&str, &str)] = &[
     ("fdiv_std_binary", "fdiv_spread.binary"),
 ];
 
-/// Adds to the help of every configuration flag of `cmd` the file key it sets and its value in
-/// each preset, e.g. `[file: num_peaks = 10 (default), 10 (thesis)]`, taken from the presets
-/// themselves so the help cannot drift from the code.
-pub fn annotate(mut cmd: clap::Command) -> clap::Command {
+/// The note each configuration flag's help ends with: the file key it sets and its value in each
+/// preset, e.g. `[file: num_peaks = 10 (default), 10 (thesis)]`, taken from the presets themselves
+/// so the help cannot drift from the code. Pairs of flag id and note, for [`annotate`].
+#[must_use]
+pub fn flag_notes() -> Vec<(&'static str, String)> {
     let presets = cma_config::Preset::ALL.map(|p| (p.name(), p.config()));
+    FLAG_KEYS
+        .iter()
+        .map(|(id, key)| {
+            let values: Vec<String> = presets
+                .iter()
+                .map(|(name, c)| {
+                    let v = cma_config::value_of(c, key).unwrap_or_else(|| "none".into());
+                    format!("{v} ({name})")
+                })
+                .collect();
+            (*id, format!("[file: {key} = {}]", values.join(", ")))
+        })
+        .collect()
+}
+
+/// Appends to the help of every configuration flag of `cmd` its note from `notes`
+/// ([`flag_notes`]).
+pub fn annotate(mut cmd: clap::Command, notes: &[(&'static str, String)]) -> clap::Command {
     // Every argument is touched in its order, as `mut_arg` moves the argument to the end: the
     // help keeps the declaration order (and with it the order of the headings).
     let ids: Vec<clap::Id> = cmd.get_arguments().map(|a| a.get_id().clone()).collect();
     for id in ids {
-        let note = FLAG_KEYS
+        let note = notes
             .iter()
             .find(|(f, _)| *f == id.as_str())
-            .map(|(_, key)| {
-                let values: Vec<String> = presets
-                    .iter()
-                    .map(|(name, c)| {
-                        let v = cma_config::value_of(c, key).unwrap_or_else(|| "none".into());
-                        format!("{v} ({name})")
-                    })
-                    .collect();
-                format!("[file: {key} = {}]", values.join(", "))
-            });
+            .map(|(_, n)| n);
         cmd = cmd.mut_arg(id, |a| match note {
             Some(note) => {
                 let help = a.get_help().map(ToString::to_string).unwrap_or_default();
