@@ -5,6 +5,12 @@
 //! the preset's), then the flags given on the command line. A measured `--table` switches the
 //! self-calibration off after the file (it already describes the real capsules) unless `--selfcal`
 //! says otherwise. `host-sim config` prints the result as a complete file.
+//!
+//! Rarely changed tuning settings have no flag and are set in the file only: the grid tracker's
+//! velocity drift and likelihood floor (`tracking.Grid.velocity_pole`, `min_velocity_deg`,
+//! `velocity_gain`, `likelihood_floor`, `motion_diffusion`), the self-calibration's learning rules
+//! (`capsule_calibration.background_db`, `shrinkage`, `directional_reliability`, `memory_frames`,
+//! `max_anisotropy`) and the settings that never had one (`silence_power`, `clip_level`, …).
 
 use crate::error::{Result, SimError};
 use cma_core::config::{Tracking, DEFAULT_GRID_TRACKER};
@@ -208,24 +214,9 @@ pub struct ConfigArgs {
     /// Grid tracker: random-walk step per frame, degrees.
     #[arg(long, help_heading = "Tracking")]
     pub diffusion: Option<f32>,
-    /// Grid tracker: pole of the angular-velocity estimate (0 = no drift).
-    #[arg(long, help_heading = "Tracking")]
-    pub velocity_pole: Option<f32>,
-    /// Grid tracker: dead zone of the velocity drift, degrees per frame.
-    #[arg(long, help_heading = "Tracking")]
-    pub min_velocity: Option<f32>,
     /// Grid tracker: jump probability per frame.
     #[arg(long, help_heading = "Tracking")]
     pub jump_prob: Option<f32>,
-    /// Grid tracker: gain of the b-weighted innovation velocity estimate (0 = pole average).
-    #[arg(long, help_heading = "Tracking")]
-    pub velocity_gain: Option<f32>,
-    /// Grid tracker: likelihood floor relative to the maximum (0 = off).
-    #[arg(long, help_heading = "Tracking")]
-    pub likelihood_floor: Option<f32>,
-    /// Grid tracker: extra diffusion per unit of drift velocity (0 = off).
-    #[arg(long, help_heading = "Tracking")]
-    pub motion_diffusion: Option<f32>,
     /// Grid tracker: jump probability of the first reliable frames after a pause.
     #[arg(long, help_heading = "Tracking")]
     pub onset_jump_prob: Option<f32>,
@@ -298,22 +289,6 @@ pub struct ConfigArgs {
     /// Self-calibration: keep learning (on) or only apply the start estimate of --selfcal-in (off).
     #[arg(long, value_enum, help_heading = "Self-calibration")]
     pub selfcal_adapt: Option<OnOff>,
-    /// Self-calibration: a frame is background up to this many dB above the noise floor.
-    #[arg(long, help_heading = "Self-calibration")]
-    pub selfcal_background_db: Option<f32>,
-    /// Self-calibration: per-peak sampling variance times margin that a deviation from the ideal
-    /// capsule must clear before it is corrected.
-    #[arg(long, help_heading = "Self-calibration")]
-    pub selfcal_shrinkage: Option<f32>,
-    /// Self-calibration: frames whose curve reliability exceeds this are not learned from.
-    #[arg(long, help_heading = "Self-calibration")]
-    pub selfcal_directional: Option<f32>,
-    /// Self-calibration: memory in background frames.
-    #[arg(long, help_heading = "Self-calibration")]
-    pub selfcal_memory: Option<f32>,
-    /// Self-calibration: largest anisotropy of a background batch that is still learned from.
-    #[arg(long, help_heading = "Self-calibration")]
-    pub selfcal_anisotropy: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
     #[arg(long, help_heading = "Analysis: peaks and features")]
     pub directness: Option<f32>,
@@ -439,23 +414,8 @@ impl ConfigArgs {
         if let Some(v) = self.diffusion {
             grid.diffusion_deg = v;
         }
-        if let Some(v) = self.velocity_pole {
-            grid.velocity_pole = v;
-        }
-        if let Some(v) = self.min_velocity {
-            grid.min_velocity_deg = v;
-        }
         if let Some(v) = self.jump_prob {
             grid.jump_probability = v;
-        }
-        if let Some(v) = self.velocity_gain {
-            grid.velocity_gain = v;
-        }
-        if let Some(v) = self.likelihood_floor {
-            grid.likelihood_floor = v;
-        }
-        if let Some(v) = self.motion_diffusion {
-            grid.motion_diffusion = v;
         }
         if let Some(v) = self.onset_jump_prob {
             grid.onset_jump_probability = v;
@@ -515,21 +475,6 @@ impl ConfigArgs {
         }
         if let Some(v) = self.selfcal_adapt {
             c.capsule_calibration.adapt = v == OnOff::On;
-        }
-        if let Some(v) = self.selfcal_background_db {
-            c.capsule_calibration.background_db = v;
-        }
-        if let Some(v) = self.selfcal_shrinkage {
-            c.capsule_calibration.shrinkage = v;
-        }
-        if let Some(v) = self.selfcal_directional {
-            c.capsule_calibration.directional_reliability = v;
-        }
-        if let Some(v) = self.selfcal_memory {
-            c.capsule_calibration.memory_frames = v;
-        }
-        if let Some(v) = self.selfcal_anisotropy {
-            c.capsule_calibration.max_anisotropy = v;
         }
         if let Some(v) = self.directness {
             c.direct_sound.directness_exponent = v;
@@ -634,12 +579,7 @@ pub const FLAG_KEYS: &[(&str, &str)] = &[
     ("tracker", "tracking"),
     ("sharpness", "tracking.Grid.sharpness"),
     ("diffusion", "tracking.Grid.diffusion_deg"),
-    ("velocity_pole", "tracking.Grid.velocity_pole"),
-    ("min_velocity", "tracking.Grid.min_velocity_deg"),
     ("jump_prob", "tracking.Grid.jump_probability"),
-    ("velocity_gain", "tracking.Grid.velocity_gain"),
-    ("likelihood_floor", "tracking.Grid.likelihood_floor"),
-    ("motion_diffusion", "tracking.Grid.motion_diffusion"),
     ("onset_jump_prob", "tracking.Grid.onset_jump_probability"),
     ("pause_frames", "tracking.Grid.pause_frames"),
     ("onset_frames", "tracking.Grid.onset_frames"),
@@ -649,14 +589,6 @@ pub const FLAG_KEYS: &[(&str, &str)] = &[
     ("refine_curve", "tracking.Grid.refine_curve"),
     ("selfcal", "capsule_calibration.enabled"),
     ("selfcal_adapt", "capsule_calibration.adapt"),
-    ("selfcal_background_db", "capsule_calibration.background_db"),
-    ("selfcal_shrinkage", "capsule_calibration.shrinkage"),
-    (
-        "selfcal_directional",
-        "capsule_calibration.directional_reliability",
-    ),
-    ("selfcal_memory", "capsule_calibration.memory_frames"),
-    ("selfcal_anisotropy", "capsule_calibration.max_anisotropy"),
     ("fdiv_pole", "fdiv_pole"),
     ("tdiv_pole", "tdiv_pole"),
     ("power_max", "quality.power_max"),
