@@ -23,6 +23,7 @@ use crate::{FRAME_LEN, NUM_BINS};
 /// Which localization principle runs (appendix A `se.principle`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Method {
     /// The similarity approach (thesis §5.1).
     Similarity,
@@ -34,6 +35,8 @@ pub enum Method {
 
 /// How the per-frame similarity curves become the reported azimuth.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub enum Tracking {
     /// The thesis: adaptive one-pole filter on the curve, S̃ = b·S + (1 − b)·S̃ (eq. 5.31).
     OnePole,
@@ -78,6 +81,8 @@ pub const DEFAULT_FRAME_ONSET: FrameOnset = FrameOnset {
 /// Everything that can be set. Build one with [`LocatorConfig::default`] (the product) or
 /// [`LocatorConfig::thesis`] (the published method) and change fields.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct LocatorConfig {
     /// Localization principle.
     pub method: Method,

@@ -87,15 +87,17 @@ fn init_locator() -> &'static mut Locator<'static> {
     // The table embedded at build time: measured with `CMA_TABLE`, else the ideal model. A measured
     // table already describes the capsules, so the self-calibration (which maps them to the ideal
     // model) is off with one.
-    let mut config = LocatorConfig::default();
+    // The configuration embedded at build time: `CMA_CONFIG`, else `LocatorConfig::default()`.
+    let mut config: LocatorConfig = cma_firmware::embedded_config::CONFIG;
     if cma_core::embedded_table::HAS_MEASURED_TABLE {
         config.capsule_calibration.enabled = false;
     }
     if MULTI_TALKER {
         config.multi_track = cma_core::multi_track::MultiTrack::DEFAULT;
     }
-    // Note(unwrap-like panic): the default configuration and the embedded table (checked when it was
-    // built in) are valid at 48 kHz; a failure here is a build defect and panics at boot.
+    // Note(unwrap-like panic): the embedded configuration (checked by build.rs) and the embedded
+    // table (checked when it was built in) are valid at 48 kHz; a failure here is a build defect and
+    // panics at boot.
     let locator = match Locator::init_in_place(
         LOCATOR.uninit(),
         config,

@@ -9,6 +9,7 @@
 //! * [`tdm`] — 4-slot TDM words (one 4-channel ADC on the STM32F446 board's SAI) to `f32`
 //!   sample frames in the core's channel order, and the receiver's restart at a frame sync;
 //! * [`stats`] — the counters the frame stream reports (DMA overruns, frames dropped by UART backpressure).
+//! * [`embedded_config`] — the localizer configuration, embedded at build time (`CMA_CONFIG=path`).
 //! * [`stored_capsules`] — the capsule estimate the self-calibration starts from, embedded at build
 //!   time (`CMA_SELFCAL=path`);
 //! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
@@ -24,6 +25,7 @@
 extern crate std;
 
 pub mod board_api;
+pub mod embedded_config;
 pub mod emulated;
 pub mod i2s_align;
 pub mod sample;

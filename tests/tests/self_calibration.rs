@@ -174,6 +174,13 @@ fn bad_estimate_files_and_settings_are_errors() {
     .unwrap_err();
     assert!(err.to_string().contains("off"), "{err}");
     assert!(!Path::new(&out).exists());
-    let err = host_sim(&["locate", w.as_str(), "--selfcal-memory", "0"]).unwrap_err();
+    let config = path_in(dir.path(), "memory0.toml");
+    std::fs::write(&config, "[capsule_calibration]\nmemory_frames = 0.0\n").unwrap();
+    let err = host_sim(&["locate", w.as_str(), "--config", config.as_str()]).unwrap_err();
     assert!(err.to_string().contains("self-calibration"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("`capsule_calibration.memory_frames`"),
+        "{err}"
+    );
 }

@@ -70,6 +70,8 @@ const KAPPA: f32 = 1.0 / 3.0;
 
 /// Settings of the self-calibration.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct CapsuleCalibration {
     /// Whether the stage runs (estimates and corrects).
     pub enabled: bool,

@@ -15,6 +15,8 @@ use microfft::Complex32;
 
 /// Direct-sound weighting settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct DirectSound {
     /// Exponent γ of the directness weight (0 disables it).
     pub directness_exponent: f32,

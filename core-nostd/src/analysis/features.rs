@@ -29,6 +29,7 @@ use microfft::Complex32;
 /// Which ratio a peak's features are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum FeatureKind {
     /// |X_c| / |X_0| (thesis eq. 5.7).
     Magnitude,

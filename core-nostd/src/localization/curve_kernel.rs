@@ -23,6 +23,8 @@ use crate::refine_curve::DistancePower;
 /// The per-peak term of the similarity curve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub enum CurveKernel {
     /// The similarity measure's own value: 1/(1 + d) for the Euclidean measure (the thesis).
     Reciprocal,

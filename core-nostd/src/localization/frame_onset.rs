@@ -26,6 +26,8 @@ pub const MAX_ONSET_HISTORY: usize = 8;
 
 /// Frame onset settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct FrameOnset {
     /// Whether the weighting applies.
     pub enabled: bool,

@@ -11,6 +11,8 @@ use crate::power_ramp::{power_ratio_from_db, PowerRamp};
 
 /// Gate settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct NoiseGate {
     /// Whether the gate applies.
     pub enabled: bool,

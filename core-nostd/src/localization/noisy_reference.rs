@@ -12,6 +12,7 @@ use crate::MAX_SNR_SETS;
 /// How reference features are mixed with omni noise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum NoiseMixing {
     /// Clean references only.
     Off,

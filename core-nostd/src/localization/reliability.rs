@@ -6,6 +6,8 @@ use crate::MAX_AZIMUTHS;
 
 /// Scaling of the curve variance into the filter coefficient.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Reliability {
     /// `false` gives b = 1 for every frame (appendix A `QMoff`).
     pub enabled: bool,

@@ -17,6 +17,7 @@ use crate::MAX_SNR_SETS;
 /// Similarity measure.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum SimilarityMeasure {
     /// 1 / (1 + ‖a − b‖₂) (eq. 4.18 with p = 2), the default.
     Euclidean,

@@ -6,6 +6,7 @@
 /// Where the reliability coefficient b acts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Smoothing {
     /// One-pole filter on the similarity curve (eq. 5.31) — the thesis's choice and the default.
     Curve,

@@ -18,6 +18,7 @@ use microfft::Complex32;
 /// How a frame's peaks become one azimuth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Combination {
     /// Rule 1: mean similarity curve over the peaks, then argmax (eq. 5.11–5.12). Default.
     MeanCurve,
@@ -30,6 +31,8 @@ pub enum Combination {
 /// FDIV frame reliability from the circular standard deviation over bins (§5.2.2).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct FdivSpread {
     /// Scale s_max in degrees; 0 or less switches the option off (FDIV's own smoothing only).
     pub max_std_deg: f32,

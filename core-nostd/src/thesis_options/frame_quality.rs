@@ -20,6 +20,8 @@ use crate::reliability::{unit_reliability, Reliability};
 /// b̃ = 1 (every frame trusted, like `QMoff`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct QualityMeasures {
     /// Similarity-curve variance V_S / V_max (eq. 5.26).
     pub curve_variance: bool,
@@ -34,6 +36,8 @@ pub struct QualityMeasures {
 /// Frame quality configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct FrameQuality {
     /// Selected measures.
     pub measures: QualityMeasures,

@@ -21,6 +21,8 @@ use crate::MAX_AZIMUTHS;
 
 /// Tracker settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct GridTracker {
     /// Likelihood sharpness λ (per unit similarity, at b = 1).
     pub sharpness: f32,

@@ -53,6 +53,8 @@ const SIN_120: f32 = 0.866_025_4;
 
 /// Settings of the multi-talker tracker (plain values; frames are analysis hops).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct MultiTrack {
     /// The stage runs (similarity method only).
     pub enabled: bool,

@@ -18,6 +18,7 @@
 /// The curve whose running mean places the estimate between grid points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum RefineCurve {
     /// The frame's similarity curve (the tracker's likelihood).
     Similarity,
@@ -45,6 +46,7 @@ impl RefineCurve {
 /// A power d^p of a peak's feature distance d, computed from d² and d without a library call.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum DistancePower {
     /// d.
     One,

@@ -1,60 +1,15 @@
-//! Command-line side of the calibration: `host-sim sweep` and `host-sim calibrate` (argument parsing,
-//! file reading, the table plot). The computation is in [`crate::calibrate`].
+//! `host-sim calibrate`: argument parsing, file reading and the table plot of the calibration. The
+//! computation is in [`crate::calibrate`].
 
 use crate::calibrate::{self, CalibrationOptions, Measurement};
 use crate::error::{Result, SimError};
 use crate::sweep::SweepSpec;
 use crate::table_io::OwnedTable;
-use crate::wav_io::{read_four_channels, read_mono, write_wav_with_comment, OutFormat};
+use crate::wav_io::{read_four_channels, read_mono};
 use cma_core::CARDIOID_LOOK_DEG;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
-
-/// Sweep parameters on the command line.
-#[derive(Debug, Clone, clap::Args)]
-pub struct SweepParams {
-    /// Start frequency f1, Hz.
-    #[arg(long, default_value_t = 50.0)]
-    pub f1: f64,
-    /// Stop frequency f2, Hz.
-    #[arg(long, default_value_t = 20_000.0)]
-    pub f2: f64,
-    /// Duration, s.
-    #[arg(long, default_value_t = 5.0)]
-    pub seconds: f64,
-    /// Sample rate, Hz.
-    #[arg(long, default_value_t = 48_000)]
-    pub rate: u32,
-}
-
-impl SweepParams {
-    fn spec(&self) -> SweepSpec {
-        SweepSpec {
-            f1: self.f1,
-            f2: self.f2,
-            seconds: self.seconds,
-            rate: self.rate,
-        }
-    }
-}
-
-/// `host-sim sweep`.
-#[derive(Debug, clap::Args)]
-pub struct SweepArgs {
-    /// Output WAV (mono).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Sweep parameters.
-    #[command(flatten)]
-    pub sweep: SweepParams,
-    /// Peak level, dBFS.
-    #[arg(long, allow_hyphen_values = true, default_value_t = -6.0)]
-    pub peak_dbfs: f64,
-    /// Sample format.
-    #[arg(long, value_enum, default_value_t = OutFormat::Float)]
-    pub format: OutFormat,
-}
 
 /// `host-sim calibrate`.
 #[derive(Debug, clap::Args)]
@@ -109,28 +64,6 @@ pub struct CalibrateArgs {
     /// Also draw the table (features vs azimuth per capsule at four frequencies) into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-}
-
-/// Runs `host-sim sweep`.
-pub fn cmd_sweep(a: &SweepArgs) -> Result<()> {
-    let spec = a.sweep.spec();
-    spec.validate()?;
-    if !(a.peak_dbfs <= 0.0 && a.peak_dbfs > -60.0) {
-        return Err(SimError::Usage(format!(
-            "--peak-dbfs: expected −60 < level ≤ 0, got {}",
-            a.peak_dbfs
-        )));
-    }
-    let g = 10f64.powf(a.peak_dbfs / 20.0);
-    let s: Vec<f32> = spec.generate().iter().map(|v| (v * g) as f32).collect();
-    write_wav_with_comment(
-        &a.out,
-        spec.rate,
-        1,
-        &s,
-        a.format,
-        Some(&spec.info_comment()),
-    )
 }
 
 /// Reads one 4-channel recording.
@@ -339,7 +272,7 @@ pub fn symmetry_warning(check: &calibrate::SymmetryCheck) -> Option<String> {
 }
 
 /// Runs `host-sim calibrate`.
-pub fn cmd_calibrate(a: &CalibrateArgs) -> Result<()> {
+pub fn run(a: &CalibrateArgs) -> Result<()> {
     if let Some(p) = &a.plot {
         if p.extension().and_then(|e| e.to_str()) != Some("png") {
             return Err(SimError::Usage(format!(
@@ -572,7 +505,7 @@ fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wav_io::write_wav;
+    use crate::wav_io::{write_wav, OutFormat};
 
     /// A 0.5 s, 16 kHz sweep up to 7 kHz made by `host-sim sweep`, its anechoic recordings at 0°,
     /// 120° and 240° made by `host-sim scene`, and their manifest `cal/list.csv` (with a header in

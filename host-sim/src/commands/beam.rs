@@ -1,5 +1,5 @@
-//! Subcommands of the thesis's further functions: `beam`, `beam-report`, `options-eval`,
-//! `distance-report`.
+//! `host-sim beam`: the self-steered beamformer (thesis §3.3, appendix A `result.sig` /
+//! `result.sigb`) on a WAV file.
 
 use crate::beam::{self, Steer};
 use crate::config_args::ConfigArgs;
@@ -44,46 +44,8 @@ pub struct BeamArgs {
     pub config: ConfigArgs,
 }
 
-/// `host-sim beam-report`.
-#[derive(Debug, clap::Args)]
-pub struct BeamReportArgs {
-    /// Source-material folder (`shared/data/src`: speech/, rir/).
-    pub data: PathBuf,
-    /// Diffuse-noise SNR on the omni, dB.
-    #[arg(long, default_value_t = 0.0, value_parser = crate::arg_values::decibels)]
-    pub snr: f64,
-}
-
-/// `host-sim options-eval`.
-#[derive(Debug, clap::Args)]
-pub struct OptionsEvalArgs {
-    /// Folder with manifest.csv.
-    pub dir: PathBuf,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_parser = crate::arg_values::threads)]
-    pub threads: Option<usize>,
-    /// Flags applied to every variant (as on the `eval` command line), e.g. `--preset thesis`.
-    #[arg(long, allow_hyphen_values = true)]
-    pub base: Option<String>,
-}
-
-/// `host-sim distance-report`.
-#[derive(Debug, clap::Args)]
-pub struct DistanceReportArgs {
-    /// Source-material folder (`shared/data/src`).
-    pub data: PathBuf,
-    /// Low band for the distance features, Hz.
-    #[arg(long, default_value_t = 80.0)]
-    pub band_lo: f32,
-    /// Upper edge of the band, Hz.
-    #[arg(long, default_value_t = 500.0)]
-    pub band_hi: f32,
-    /// Peaks per long frame.
-    #[arg(long, default_value_t = 5)]
-    pub peaks: usize,
-}
-
-pub(crate) fn beam(a: &BeamArgs) -> Result<()> {
+/// Runs `host-sim beam`.
+pub fn run(a: &BeamArgs) -> Result<()> {
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
     let config = a.config.config()?;
     let table = a.config.ideal_table()?;
@@ -130,34 +92,4 @@ pub(crate) fn beam(a: &BeamArgs) -> Result<()> {
         std::fs::write(p, s).map_err(|e| SimError::io(p, e))?;
     }
     Ok(())
-}
-
-pub(crate) fn beam_report(a: &BeamReportArgs) -> Result<()> {
-    let rows = beam::beam_report(&a.data, a.snr, 16_000)?;
-    crate::stdout_text::print_text(&beam::format_report(&rows))
-}
-
-pub(crate) fn options_eval(a: &OptionsEvalArgs) -> Result<()> {
-    let threads = a
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let base: Vec<String> = a
-        .base
-        .as_deref()
-        .unwrap_or("")
-        .split_whitespace()
-        .map(String::from)
-        .collect();
-    crate::options_eval::options_table(&a.dir, &base, threads, std::io::stdout().lock())
-}
-
-pub(crate) fn distance_report(a: &DistanceReportArgs) -> Result<()> {
-    let snrs = [None, Some(20.0), Some(10.0), Some(0.0)];
-    let rows = crate::distance_eval::distance_report(
-        &a.data,
-        &snrs,
-        (a.band_lo, a.band_hi),
-        a.peaks.max(1),
-    )?;
-    crate::stdout_text::print_text(&crate::distance_eval::format_report(&rows))
 }

@@ -607,7 +607,7 @@ pub fn format_table(r: &Report) -> String {
 }
 
 /// `host-sim eval` on a multi-talker folder.
-pub fn run(a: &crate::EvalArgs) -> Result<()> {
+pub fn run(a: &crate::commands::eval::EvalArgs) -> Result<()> {
     let config = a.config.config()?;
     let measured = a.config.measured_table()?;
     let table = a.config.table(measured.as_ref())?;

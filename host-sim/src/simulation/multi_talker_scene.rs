@@ -401,7 +401,7 @@ pub fn write(
 }
 
 /// `host-sim scene --talkers N`.
-pub fn run(a: &crate::SceneArgs, n: u8) -> Result<()> {
+pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
     let n = usize::from(n);
     let mut rng = Rng::new(a.seed ^ 0xA5A5);
     let numbers = |flag: &str, s: &str| {

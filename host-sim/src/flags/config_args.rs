@@ -1,4 +1,16 @@
-//! Command-line flags that set the localizer configuration, shared by `locate`, `eval` and friends.
+//! Command-line flags that set the localizer configuration, shared by every command that localizes
+//! (`locate`, `eval`, `emit`, `beam`, `config`; `options-eval` through its `--base`).
+//!
+//! Precedence: the preset (`--preset`), then the configuration file (`--config`, whose keys replace
+//! the preset's), then the flags given on the command line. A measured `--table` switches the
+//! self-calibration off after the file (it already describes the real capsules) unless `--selfcal`
+//! says otherwise. `host-sim config` prints the result as a complete file.
+//!
+//! Rarely changed tuning settings have no flag and are set in the file only: the grid tracker's
+//! velocity drift and likelihood floor (`tracking.Grid.velocity_pole`, `min_velocity_deg`,
+//! `velocity_gain`, `likelihood_floor`, `motion_diffusion`), the self-calibration's learning rules
+//! (`capsule_calibration.background_db`, `shrinkage`, `directional_reliability`, `memory_frames`,
+//! `max_anisotropy`) and the settings that never had one (`silence_power`, `clip_level`, …).
 
 use crate::error::{Result, SimError};
 use cma_core::config::{Tracking, DEFAULT_GRID_TRACKER};
@@ -15,6 +27,15 @@ pub enum Preset {
     Default,
     /// The thesis's published configuration, for side-by-side reproduction.
     Thesis,
+}
+
+impl From<Preset> for cma_config::Preset {
+    fn from(p: Preset) -> Self {
+        match p {
+            Preset::Default => cma_config::Preset::Default,
+            Preset::Thesis => cma_config::Preset::Thesis,
+        }
+    }
 }
 
 /// Localization principle on the command line.
@@ -109,189 +130,186 @@ pub enum KernelArg {
 /// Localizer configuration flags. Unset flags keep the preset's value.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ConfigArgs {
-    /// Starting configuration.
-    #[arg(long, value_enum, default_value_t = Preset::Default)]
+    /// Starting configuration (`host-sim config --preset P` prints it).
+    #[arg(long, value_enum, default_value_t = Preset::Default, help_heading = "Configuration")]
     pub preset: Preset,
+    /// Configuration file (TOML, as `host-sim config` prints it; may hold only some keys): laid
+    /// over the preset; flags given here override it.
+    #[arg(long, value_name = "FILE", help_heading = "Configuration")]
+    pub config: Option<std::path::PathBuf>,
     /// Localization method.
-    #[arg(long, value_enum, default_value_t = MethodArg::Sim)]
-    pub method: MethodArg,
+    #[arg(long, value_enum, help_heading = "Configuration")]
+    pub method: Option<MethodArg>,
     /// Azimuth grid of the ideal reference table, degrees (5 or 15).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, help_heading = "Configuration")]
     pub grid: u32,
     /// Measured reference table (`host-sim calibrate`); replaces the ideal table of --grid.
-    #[arg(long)]
+    #[arg(long, help_heading = "Configuration")]
     pub table: Option<std::path::PathBuf>,
     /// Number of spectral peaks N_p.
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub peaks: Option<usize>,
     /// Analysis band lower edge, Hz.
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub band_lo: Option<f32>,
     /// Analysis band upper edge, Hz.
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub band_hi: Option<f32>,
     /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
-    #[arg(long)]
+    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub measure: Option<String>,
     /// The per-peak term of the similarity curve.
-    #[arg(long, value_enum)]
+    #[arg(
+        long,
+        value_enum,
+        help_heading = "Similarity: measure, kernel, noisy references"
+    )]
     pub kernel: Option<KernelArg>,
     /// Scale k of a distance kernel (1 − k·d^p); the preset's, or 1.5, when unset.
-    #[arg(long)]
+    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub kernel_scale: Option<f32>,
     /// Noisy reference features: mixing rule.
-    #[arg(long, value_enum)]
+    #[arg(
+        long,
+        value_enum,
+        help_heading = "Similarity: measure, kernel, noisy references"
+    )]
     pub noise: Option<NoiseArg>,
     /// Lowest SNR of the noisy reference sets, dB.
-    #[arg(long)]
+    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_from: Option<f32>,
     /// Highest SNR of the noisy reference sets, dB.
-    #[arg(long)]
+    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_to: Option<f32>,
     /// SNR step between the noisy reference sets, dB.
-    #[arg(long)]
+    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_step: Option<f32>,
     /// Mean-free features.
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub mean_free: bool,
     /// Peak features: magnitude ratios (the thesis preset) or active ratios (the default preset).
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, help_heading = "Analysis: peaks and features")]
     pub features: Option<FeaturesArg>,
     /// Switch reliability weighting off (b = 1 for every frame).
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub no_reliability: bool,
     /// Speed factor K of the reliability weighting.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub speed: Option<f32>,
     /// Curve-variance scale V_max of the reliability weighting.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub vmax: Option<f32>,
     /// Curve-variance floor V_0 of the reliability weighting (b = 0 at or below it).
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub vfloor: Option<f32>,
     /// Exponent p of the reliability coefficient b = clip(K·(V/V_max)^p, 0, 1).
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub reliability_exponent: Option<f32>,
     /// Tracker on the similarity curve.
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, help_heading = "Tracking")]
     pub tracker: Option<TrackerArg>,
     /// Grid tracker: likelihood sharpness λ.
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub sharpness: Option<f32>,
     /// Grid tracker: random-walk step per frame, degrees.
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub diffusion: Option<f32>,
-    /// Grid tracker: pole of the angular-velocity estimate (0 = no drift).
-    #[arg(long)]
-    pub velocity_pole: Option<f32>,
-    /// Grid tracker: dead zone of the velocity drift, degrees per frame.
-    #[arg(long)]
-    pub min_velocity: Option<f32>,
     /// Grid tracker: jump probability per frame.
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub jump_prob: Option<f32>,
-    /// Grid tracker: gain of the b-weighted innovation velocity estimate (0 = pole average).
-    #[arg(long)]
-    pub velocity_gain: Option<f32>,
-    /// Grid tracker: likelihood floor relative to the maximum (0 = off).
-    #[arg(long)]
-    pub likelihood_floor: Option<f32>,
-    /// Grid tracker: extra diffusion per unit of drift velocity (0 = off).
-    #[arg(long)]
-    pub motion_diffusion: Option<f32>,
     /// Grid tracker: jump probability of the first reliable frames after a pause.
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub onset_jump_prob: Option<f32>,
     /// Grid tracker: frames with b = 0 that make a pause (0 = no onset jump probability).
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub pause_frames: Option<u32>,
     /// Grid tracker: reliable frames after a pause that use the onset jump probability.
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub onset_frames: Option<u32>,
     /// Grid tracker: likelihood floor of the onset frames (the first reliable frames after a pause).
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub onset_floor: Option<f32>,
     /// Grid tracker: gain of the running mean curve that places the estimate between grid points
     /// (0 = parabola through the log-posterior, the earlier behaviour).
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub refine_gain: Option<f32>,
     /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
-    #[arg(long)]
+    #[arg(long, help_heading = "Tracking")]
     pub refine_limit: Option<f32>,
     /// Grid tracker: the curve whose running mean places the estimate between grid points.
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, help_heading = "Tracking")]
     pub refine_curve: Option<RefineCurveArg>,
     /// Noise-floor gate of the reliability b: on or off.
-    #[arg(long, value_enum)]
+    #[arg(
+        long,
+        value_enum,
+        help_heading = "Reliability: weighting, noise gate, frame onset"
+    )]
     pub noise_gate: Option<OnOff>,
     /// Noise-floor gate: largest rise of the tracked floor, dB per second.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_rise: Option<f32>,
     /// Noise-floor gate: frame power above the floor (dB) where b starts to pass.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_open: Option<f32>,
     /// Noise-floor gate: frame power above the floor (dB) where b passes fully.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_full: Option<f32>,
     /// Frame onset weighting of the reliability b: on (the default preset) or off (the thesis).
-    #[arg(long, value_enum)]
+    #[arg(
+        long,
+        value_enum,
+        help_heading = "Reliability: weighting, noise gate, frame onset"
+    )]
     pub frame_onset: Option<OnOff>,
     /// Frame onset: frames of power history the rise is measured against.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub frame_onset_history: Option<usize>,
     /// Frame onset: rise (dB) at and below which a frame gets the floor weight.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        help_heading = "Reliability: weighting, noise gate, frame onset"
+    )]
     pub frame_onset_low: Option<f32>,
     /// Frame onset: rise (dB) at and above which a frame gets full weight.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        help_heading = "Reliability: weighting, noise gate, frame onset"
+    )]
     pub frame_onset_high: Option<f32>,
     /// Frame onset: weight of frames at or below the low rise.
-    #[arg(long)]
+    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub frame_onset_floor: Option<f32>,
     /// Blind self-calibration of the cardioids from the diffuse background: on (the default
     /// preset) or off (the thesis; also off with a measured --table, which already holds the array).
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, help_heading = "Self-calibration")]
     pub selfcal: Option<OnOff>,
     /// Self-calibration: keep learning (on) or only apply the start estimate of --selfcal-in (off).
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, help_heading = "Self-calibration")]
     pub selfcal_adapt: Option<OnOff>,
-    /// Self-calibration: a frame is background up to this many dB above the noise floor.
-    #[arg(long)]
-    pub selfcal_background_db: Option<f32>,
-    /// Self-calibration: per-peak sampling variance times margin that a deviation from the ideal
-    /// capsule must clear before it is corrected.
-    #[arg(long)]
-    pub selfcal_shrinkage: Option<f32>,
-    /// Self-calibration: frames whose curve reliability exceeds this are not learned from.
-    #[arg(long)]
-    pub selfcal_directional: Option<f32>,
-    /// Self-calibration: memory in background frames.
-    #[arg(long)]
-    pub selfcal_memory: Option<f32>,
-    /// Self-calibration: largest anisotropy of a background batch that is still learned from.
-    #[arg(long)]
-    pub selfcal_anisotropy: Option<f32>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub directness: Option<f32>,
     /// Onset exponent of the direct-sound peak weighting (0 = off).
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub onset: Option<f32>,
     /// Absolute peak threshold on |X_omni| (0 = off).
-    #[arg(long)]
+    #[arg(long, help_heading = "Analysis: peaks and features")]
     pub peak_threshold: Option<f32>,
     /// FDIV intensity smoothing pole.
-    #[arg(long)]
+    #[arg(long, help_heading = "Baselines: FDIV and TDIV")]
     pub fdiv_pole: Option<f32>,
     /// TDIV smoothing pole.
-    #[arg(long)]
+    #[arg(long, help_heading = "Baselines: FDIV and TDIV")]
     pub tdiv_pole: Option<f32>,
     /// Multi-talker tracks with persistent IDs (similarity method): on or off (the presets;
     /// `locate --tracks` and `eval` of a multi-talker folder switch them on).
     #[arg(long, value_enum)]
     pub multi_talker: Option<OnOff>,
     /// Thesis alternatives (see `docs/options.md`).
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Thesis options")]
     pub options: crate::options_eval::OptionArgs,
 }
 
@@ -321,15 +339,24 @@ impl ConfigArgs {
 
     /// The configuration these flags describe.
     pub fn config(&self) -> Result<LocatorConfig> {
-        let mut c = match self.preset {
-            Preset::Default => LocatorConfig::default(),
-            Preset::Thesis => LocatorConfig::thesis(),
-        };
-        c.method = match self.method {
-            MethodArg::Sim => Method::Similarity,
-            MethodArg::Fdiv => Method::Fdiv,
-            MethodArg::Tdiv => Method::Tdiv,
-        };
+        let mut c = cma_config::Preset::from(self.preset).config();
+        if let Some(path) = &self.config {
+            let text = crate::text_file::read(path)?;
+            c = cma_config::parse_over(&c, &text)
+                .map_err(|e| SimError::Other(format!("{}: {e}", path.display())))?;
+        }
+        // A measured table already describes the real capsules: the self-calibration (which maps
+        // them to the ideal model) is off with one unless --selfcal asks for it.
+        if self.table.is_some() {
+            c.capsule_calibration.enabled = false;
+        }
+        if let Some(m) = self.method {
+            c.method = match m {
+                MethodArg::Sim => Method::Similarity,
+                MethodArg::Fdiv => Method::Fdiv,
+                MethodArg::Tdiv => Method::Tdiv,
+            };
+        }
         if let Some(v) = self.peaks {
             c.num_peaks = v;
         }
@@ -391,23 +418,8 @@ impl ConfigArgs {
         if let Some(v) = self.diffusion {
             grid.diffusion_deg = v;
         }
-        if let Some(v) = self.velocity_pole {
-            grid.velocity_pole = v;
-        }
-        if let Some(v) = self.min_velocity {
-            grid.min_velocity_deg = v;
-        }
         if let Some(v) = self.jump_prob {
             grid.jump_probability = v;
-        }
-        if let Some(v) = self.velocity_gain {
-            grid.velocity_gain = v;
-        }
-        if let Some(v) = self.likelihood_floor {
-            grid.likelihood_floor = v;
-        }
-        if let Some(v) = self.motion_diffusion {
-            grid.motion_diffusion = v;
         }
         if let Some(v) = self.onset_jump_prob {
             grid.onset_jump_probability = v;
@@ -462,11 +474,6 @@ impl ConfigArgs {
         if let Some(v) = self.frame_onset_floor {
             c.frame_onset.floor = v;
         }
-        // A measured table already describes the real capsules: the self-calibration (which maps
-        // them to the ideal model) is off with one unless asked for.
-        if self.table.is_some() {
-            c.capsule_calibration.enabled = false;
-        }
         if let Some(v) = self.selfcal {
             c.capsule_calibration.enabled = v == OnOff::On;
         }
@@ -478,21 +485,6 @@ impl ConfigArgs {
         }
         if let Some(v) = self.selfcal_adapt {
             c.capsule_calibration.adapt = v == OnOff::On;
-        }
-        if let Some(v) = self.selfcal_background_db {
-            c.capsule_calibration.background_db = v;
-        }
-        if let Some(v) = self.selfcal_shrinkage {
-            c.capsule_calibration.shrinkage = v;
-        }
-        if let Some(v) = self.selfcal_directional {
-            c.capsule_calibration.directional_reliability = v;
-        }
-        if let Some(v) = self.selfcal_memory {
-            c.capsule_calibration.memory_frames = v;
-        }
-        if let Some(v) = self.selfcal_anisotropy {
-            c.capsule_calibration.max_anisotropy = v;
         }
         if let Some(v) = self.directness {
             c.direct_sound.directness_exponent = v;
@@ -559,4 +551,105 @@ fn parse_measure(s: &str) -> Result<SimilarityMeasure> {
                 ))
             }),
     }
+}
+
+/// Which configuration-file key each flag sets (flag id, dotted key): the help of every
+/// configuration flag shows the key and its value in each preset ([`annotate`]).
+pub const FLAG_KEYS: &[(&str, &str)] = &[
+    ("method", "method"),
+    ("peaks", "num_peaks"),
+    ("band_lo", "band_lo_hz"),
+    ("band_hi", "band_hi_hz"),
+    ("peak_threshold", "peak_threshold"),
+    ("directness", "direct_sound.directness_exponent"),
+    ("onset", "direct_sound.onset_exponent"),
+    ("features", "features"),
+    ("mean_free", "mean_free"),
+    ("measure", "measure"),
+    ("kernel", "kernel"),
+    ("kernel_scale", "kernel.Distance.scale"),
+    ("noise", "noise_mixing"),
+    ("snr_from", "snr_from_db"),
+    ("snr_to", "snr_to_db"),
+    ("snr_step", "snr_step_db"),
+    ("no_reliability", "reliability.enabled"),
+    ("speed", "reliability.speed"),
+    ("vmax", "reliability.v_max"),
+    ("vfloor", "reliability.v_floor"),
+    ("reliability_exponent", "reliability.exponent"),
+    ("noise_gate", "noise_gate.enabled"),
+    ("gate_rise", "noise_gate.rise_db_per_s"),
+    ("gate_open", "noise_gate.open_db"),
+    ("gate_full", "noise_gate.full_db"),
+    ("frame_onset", "frame_onset.enabled"),
+    ("frame_onset_history", "frame_onset.history"),
+    ("frame_onset_low", "frame_onset.low_db"),
+    ("frame_onset_high", "frame_onset.high_db"),
+    ("frame_onset_floor", "frame_onset.floor"),
+    ("tracker", "tracking"),
+    ("sharpness", "tracking.Grid.sharpness"),
+    ("diffusion", "tracking.Grid.diffusion_deg"),
+    ("jump_prob", "tracking.Grid.jump_probability"),
+    ("onset_jump_prob", "tracking.Grid.onset_jump_probability"),
+    ("pause_frames", "tracking.Grid.pause_frames"),
+    ("onset_frames", "tracking.Grid.onset_frames"),
+    ("onset_floor", "tracking.Grid.onset_likelihood_floor"),
+    ("refine_gain", "tracking.Grid.refine_gain"),
+    ("refine_limit", "tracking.Grid.refine_limit"),
+    ("refine_curve", "tracking.Grid.refine_curve"),
+    ("selfcal", "capsule_calibration.enabled"),
+    ("selfcal_adapt", "capsule_calibration.adapt"),
+    ("fdiv_pole", "fdiv_pole"),
+    ("tdiv_pole", "tdiv_pole"),
+    ("power_max", "quality.power_max"),
+    ("peak_power_max", "quality.peak_power_max"),
+    ("zcr_threshold", "quality.zcr_threshold_hz"),
+    ("binary_threshold", "quality.binary_threshold"),
+    ("combination", "combination"),
+    ("smoothing", "smoothing"),
+    ("fdiv_std", "fdiv_spread.max_std_deg"),
+    ("fdiv_std_binary", "fdiv_spread.binary"),
+];
+
+/// The note each configuration flag's help ends with: the file key it sets and its value in each
+/// preset, e.g. `[file: num_peaks = 10 (default), 10 (thesis)]`, taken from the presets themselves
+/// so the help cannot drift from the code. Pairs of flag id and note, for [`annotate`].
+#[must_use]
+pub fn flag_notes() -> Vec<(&'static str, String)> {
+    let presets = cma_config::Preset::ALL.map(|p| (p.name(), p.config()));
+    FLAG_KEYS
+        .iter()
+        .map(|(id, key)| {
+            let values: Vec<String> = presets
+                .iter()
+                .map(|(name, c)| {
+                    let v = cma_config::value_of(c, key).unwrap_or_else(|| "none".into());
+                    format!("{v} ({name})")
+                })
+                .collect();
+            (*id, format!("[file: {key} = {}]", values.join(", ")))
+        })
+        .collect()
+}
+
+/// Appends to the help of every configuration flag of `cmd` its note from `notes`
+/// ([`flag_notes`]).
+pub fn annotate(mut cmd: clap::Command, notes: &[(&'static str, String)]) -> clap::Command {
+    // Every argument is touched in its order, as `mut_arg` moves the argument to the end: the
+    // help keeps the declaration order (and with it the order of the headings).
+    let ids: Vec<clap::Id> = cmd.get_arguments().map(|a| a.get_id().clone()).collect();
+    for id in ids {
+        let note = notes
+            .iter()
+            .find(|(f, _)| *f == id.as_str())
+            .map(|(_, n)| n);
+        cmd = cmd.mut_arg(id, |a| match note {
+            Some(note) => {
+                let help = a.get_help().map(ToString::to_string).unwrap_or_default();
+                a.help(format!("{help} {note}"))
+            }
+            None => a,
+        });
+    }
+    cmd
 }

@@ -1,0 +1,63 @@
+//! `host-sim eval`: the localizer on an evaluation folder, scored against ground truth.
+
+use super::progress_bar;
+use crate::config_args::ConfigArgs;
+use crate::error::{Result, SimError};
+use crate::wav_io::InputLayout;
+use crate::{arg_values, eval, plots, stdout_text};
+use std::path::PathBuf;
+
+/// `host-sim eval`.
+#[derive(Debug, clap::Args)]
+pub struct EvalArgs {
+    /// Folder with manifest.csv.
+    pub dir: PathBuf,
+    /// Print the report as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write PNG plots (track vs truth per scene, accuracy vs tolerance) into this folder.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_parser = arg_values::threads)]
+    pub threads: Option<usize>,
+    /// Channel layout of the scenes.
+    #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
+    pub input_layout: InputLayout,
+    /// Localizer configuration.
+    #[command(flatten)]
+    pub config: ConfigArgs,
+}
+
+/// Runs `host-sim eval`.
+pub fn run(a: &EvalArgs) -> Result<()> {
+    if crate::multi_talker_eval::is_multi_talker_folder(&a.dir) {
+        return crate::multi_talker_eval::run(a);
+    }
+    let config = a.config.config()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pb = progress_bar(eval::total_frames(&a.dir));
+    let (report, scenes) = eval::evaluate(&a.dir, config, table, a.input_layout, threads, &|n| {
+        pb.inc(n)
+    })?;
+    pb.finish_and_clear();
+    if a.json {
+        let json =
+            serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?;
+        stdout_text::print_text(&format!("{json}\n"))?;
+    } else {
+        stdout_text::print_text(&eval::format_table(&report))?;
+    }
+    if let Some(dir) = &a.plots {
+        std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
+        plots::accuracy_plot(&dir.join("accuracy.png"), &report)?;
+        for s in &scenes {
+            plots::track_plot(&dir.join(format!("{}.png", s.entry.name())), s)?;
+        }
+    }
+    Ok(())
+}

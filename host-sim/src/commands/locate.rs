@@ -1,0 +1,123 @@
+//! `host-sim locate`: one estimate per analysis frame of a recording, as CSV or JSON lines.
+
+use super::progress_bar;
+use crate::config_args::ConfigArgs;
+use crate::error::{Result, SimError};
+use crate::wav_io::InputLayout;
+use crate::{estimate_output, locate, multi_talker_eval, selfcal_file, stdout_text, wav_io};
+use std::path::PathBuf;
+
+/// `host-sim locate`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = LOCATE_AFTER_HELP)]
+pub struct LocateArgs {
+    /// Input WAV (4 channels); a pipe or /dev/stdin works too.
+    pub input: PathBuf,
+    /// Write the estimates to this file instead of stdout (in --format; `--out` is the same flag).
+    #[arg(long, visible_alias = "out")]
+    pub csv: Option<PathBuf>,
+    /// Format of the estimates.
+    #[arg(long, value_enum, default_value_t = estimate_output::Format::Csv)]
+    pub format: estimate_output::Format,
+    /// No progress bar and no summary lines on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Channel layout of the input.
+    #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
+    pub input_layout: InputLayout,
+    /// Start the self-calibration from this saved estimate (written by --selfcal-out).
+    #[arg(long)]
+    pub selfcal_in: Option<PathBuf>,
+    /// Write the self-calibration's final estimate here (to start the next run, or the board, from).
+    #[arg(long)]
+    pub selfcal_out: Option<PathBuf>,
+    /// Also run the multi-talker tracks and write them here: one row per track per frame,
+    /// t_s,track_id,azimuth_deg,confidence,active.
+    #[arg(long)]
+    pub tracks: Option<PathBuf>,
+    /// Localizer configuration.
+    #[command(flatten)]
+    pub config: ConfigArgs,
+}
+
+/// The end of `locate --help`: the columns and the flags.
+const LOCATE_AFTER_HELP: &str = concat!(
+    "Output: one row per analysis frame with frame, t_s (frame centre), azimuth_deg (reliability-\
+     weighted, counter-clockwise from cardioid 1), azimuth_raw_deg (this frame alone), confidence \
+     (0-1), power_db (omni) and flags. ",
+    "Flags: the decimal sum of 1 SILENT, 2 CLIPPED, 4 NON_FINITE, 8 NO_PEAKS, 16 NO_HISTORY. \
+     The first frames of a recording carry NO_HISTORY with confidence 0: no reliable frame has \
+     been seen yet and the azimuth is the start value, not an estimate. ",
+    "A summary line on stderr (unless --quiet) counts them.",
+);
+
+/// Runs `host-sim locate`.
+pub fn run(a: &LocateArgs) -> Result<()> {
+    let started = std::time::Instant::now();
+    let config = a.config.config()?;
+    let measured = a.config.measured_table()?;
+    let table = a.config.table(measured.as_ref())?;
+    let mut stream = wav_io::RecordingStream::open(&a.input, a.input_layout)?;
+    let rate = stream.rate();
+    let pb = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        progress_bar(stream.declared_frames() as u64)
+    };
+    let start = match &a.selfcal_in {
+        Some(path) => Some(selfcal_file::read(path)?),
+        None => None,
+    };
+    let mut sample_frames = 0usize;
+    let located =
+        locate::locate_stream_calibrated(&mut stream, config, table, start.as_ref(), |n| {
+            sample_frames += n;
+            pb.inc(n as u64);
+        })?;
+    pb.finish_and_clear();
+    let rows = located.rows;
+    let audio_s = sample_frames as f64 / f64::from(rate);
+    if rows.is_empty() {
+        return Err(SimError::Other(format!(
+            "{}: {sample_frames} sample frames ({audio_s:.3} s at {rate} Hz) are shorter than one \
+             analysis frame ({} samples at the analysis rate): no estimate",
+            a.input.display(),
+            cma_core::FRAME_LEN
+        )));
+    }
+    if config.capsule_calibration.enabled {
+        if !a.quiet {
+            eprint!(
+                "{}",
+                selfcal_file::summary(&located.capsules, located.capsule_confidence)
+            );
+        }
+        if let Some(path) = &a.selfcal_out {
+            selfcal_file::write(path, &located.capsules)?;
+        }
+    } else if a.selfcal_out.is_some() {
+        return Err(SimError::Usage(
+            "--selfcal-out: the self-calibration is off (--selfcal off, the thesis preset or a measured table)".into(),
+        ));
+    }
+    let write = |out: &mut dyn std::io::Write| match a.format {
+        estimate_output::Format::Csv => locate::write_csv(out, &rows),
+        estimate_output::Format::Jsonl => estimate_output::write_jsonl(out, &rows),
+    };
+    match &a.csv {
+        Some(path) => wav_io::write_atomically(path, |tmp| {
+            let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;
+            write(&mut std::io::BufWriter::new(f)).map_err(|e| SimError::io(tmp, e))
+        })?,
+        None => write(&mut std::io::BufWriter::new(std::io::stdout().lock()))
+            .map_err(|e| SimError::io(stdout_text::STDOUT, e))?,
+    }
+    if let Some(path) = &a.tracks {
+        multi_talker_eval::write_tracks_file(&a.input, a.input_layout, config, table, path)?;
+    }
+    if !a.quiet {
+        let summary = estimate_output::Summary::of(&rows, audio_s, started.elapsed().as_secs_f64());
+        eprintln!("{}", summary.line());
+    }
+    Ok(())
+}

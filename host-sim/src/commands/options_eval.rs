@@ -1,0 +1,33 @@
+//! `host-sim options-eval`: every thesis option against the default on an evaluation folder, as a
+//! Markdown table.
+
+use crate::error::Result;
+use std::path::PathBuf;
+
+/// `host-sim options-eval`.
+#[derive(Debug, clap::Args)]
+pub struct OptionsEvalArgs {
+    /// Folder with manifest.csv.
+    pub dir: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_parser = crate::arg_values::threads)]
+    pub threads: Option<usize>,
+    /// Flags applied to every variant (as on the `eval` command line), e.g. `--preset thesis`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub base: Option<String>,
+}
+
+/// Runs `host-sim options-eval`.
+pub fn run(a: &OptionsEvalArgs) -> Result<()> {
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let base: Vec<String> = a
+        .base
+        .as_deref()
+        .unwrap_or("")
+        .split_whitespace()
+        .map(String::from)
+        .collect();
+    crate::options_eval::options_table(&a.dir, &base, threads, std::io::stdout().lock())
+}

@@ -1,0 +1,9 @@
+//! Scoring estimates against ground truth: the evaluation of a folder, its metrics and plots, and the
+//! reports of the thesis options.
+
+pub mod distance_eval;
+pub mod eval;
+pub mod metrics;
+pub mod multi_talker_eval;
+pub mod options_eval;
+pub mod plots;
