@@ -171,10 +171,10 @@ printf '| **whole pipeline** | **%s** | 100 %% |\n' "$(num "$total")" >>"$out"
 multi=$(($(per_rep 9 20 120) - gen))
 printf '\n### Multi-talker configuration (the default with the multi-talker tracks on, same scene)\n\n' >>"$out"
 printf '| configuration | instructions per hop | cycles (model: 1.46 per instruction) | of a 21.33 ms hop at 100 MHz |\n|---|---:|---:|---:|\n' >>"$out"
-printf '| multi-talker tracks on | %d | %d | %.1f %% |\n' "$multi" \
-    "$(awk -v w="$multi" 'BEGIN{printf "%d", 1.46 * w}')" \
+printf '| multi-talker tracks on | %s | %s | %.1f %% |\n' "$(num "$multi")" \
+    "$(num "$(awk -v w="$multi" 'BEGIN{printf "%d", 1.46 * w}')")" \
     "$(awk -v w="$multi" 'BEGIN{print 100 * 1.46 * w / (100e6 * 1024 / 48000)}')" >>"$out"
-printf '| of which the multi-talker stage | %d | | |\n' $((multi - total)) >>"$out"
+printf '| of which the multi-talker stage | %s | | |\n' "$(num $((multi - total)))" >>"$out"
 
 cat "$out"
 if [ "$write_readme" = 1 ]; then
