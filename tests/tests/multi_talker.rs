@@ -236,3 +236,72 @@ fn bad_multi_talker_requests_are_usage_errors() {
     let bad = TalkerTruth::parse("t_s,azimuth_deg,speaking\n0,10,1\n1,20,yes\n");
     assert_eq!(bad.map_err(|e| e.0), Err(3));
 }
+
+/// Width and height from a PNG's IHDR chunk, after checking the signature and the chunk's type.
+fn png_size(bytes: &[u8]) -> Option<(u32, u32)> {
+    const SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
+    if bytes.len() < 24 || bytes[..8] != SIGNATURE || &bytes[12..16] != b"IHDR" {
+        return None;
+    }
+    let be = |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+    Some((be(16), be(20)))
+}
+
+#[test]
+fn eval_plots_of_a_multi_talker_folder_draw_one_png_per_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["p1.wav", "p2.wav"] {
+        scene(
+            dir.path(),
+            name,
+            "plots",
+            &[
+                "--talkers",
+                "2",
+                "--synth",
+                "4",
+                "--snr",
+                "10",
+                "--azimuths",
+                "60,-60",
+            ],
+        );
+    }
+    let folder = dir.path().to_string_lossy().into_owned();
+    let plots = path_in(dir.path(), "plots/sub");
+    host_sim(&["eval", &folder, "--plots", &plots, "--threads", "2"]).expect("eval --plots");
+    for name in ["p1", "p2"] {
+        let png = dir.path().join(format!("plots/sub/{name}.png"));
+        let bytes = std::fs::read(&png).unwrap_or_else(|e| panic!("{}: {e}", png.display()));
+        let (w, h) = png_size(&bytes).unwrap_or_else(|| panic!("{}: not a PNG", png.display()));
+        // Title, legend and chart: at least 1000 × 500 pixels; a blank image of that size
+        // compresses to a few kilobytes, dots and lines make it larger.
+        assert!(w >= 1000 && h >= 500, "{}: {w} × {h}", png.display());
+        assert!(bytes.len() > 10_000, "{}: {} bytes", png.display(), bytes.len());
+    }
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("plots/sub")).unwrap().count(),
+        2,
+        "one PNG per scene, nothing else"
+    );
+
+    // A --plots path that is a file is a usage error naming it, before any scene is scored.
+    let file = path_in(dir.path(), "p1.talker1.csv");
+    match host_sim(&["eval", &folder, "--plots", &file]) {
+        Err(e) => {
+            assert_eq!(e.exit_code(), 2, "{e}");
+            let text = e.to_string();
+            assert!(text.contains(&file) && text.contains("not a folder"), "{text}");
+        }
+        Ok(()) => panic!("--plots {file} succeeded"),
+    }
+    // A folder that cannot be made (below a file) is an I/O error naming it.
+    let below = format!("{file}/plots");
+    match host_sim(&["eval", &folder, "--plots", &below]) {
+        Err(e) => {
+            assert_eq!(e.exit_code(), 1, "{e}");
+            assert!(e.to_string().contains(&below), "{e}");
+        }
+        Ok(()) => panic!("--plots {below} succeeded"),
+    }
+}

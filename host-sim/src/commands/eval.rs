@@ -15,7 +15,8 @@ pub struct EvalArgs {
     /// Print the report as JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Write PNG plots (track vs truth per scene, accuracy vs tolerance) into this folder.
+    /// Write PNG plots into this folder: track vs truth per scene and accuracy vs tolerance; for a
+    /// multi-talker folder every track in its colour vs each talker's truth per scene.
     #[arg(long)]
     pub plots: Option<PathBuf>,
     /// Worker threads (default: all cores).

@@ -1,6 +1,7 @@
 //! Multi-talker tracks on the host: `locate --tracks OUT.csv` (one row per reported track per
 //! frame) and `eval` of a folder of multi-talker scenes (`scene --talkers`), scored with
-//! association-based metrics in the style of DCASE and LOCATA.
+//! association-based metrics in the style of DCASE and LOCATA (with `--plots DIR`, one PNG per
+//! scene of its tracks against its talkers' truth).
 //!
 //! # Scoring
 //! Per analysis frame, the reported *active* tracks are matched one to one to the *speaking*
@@ -486,6 +487,19 @@ pub fn evaluate_scene(
     table: ReferenceTable<'_>,
     layout: InputLayout,
 ) -> Result<SceneScore> {
+    evaluate_scene_with_plot(dir, entry, config, table, layout, None)
+}
+
+/// Scores one scene and, with `plots` a folder, draws its tracks against its talkers' truth into
+/// `plots/NAME.png` (NAME the WAV's file stem).
+pub fn evaluate_scene_with_plot(
+    dir: &Path,
+    entry: &Entry,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+    layout: InputLayout,
+    plots: Option<&Path>,
+) -> Result<SceneScore> {
     let wav = dir.join(&entry.file);
     let rec = read_recording(&wav, layout)?;
     let truths = (0..entry.talkers)
@@ -494,6 +508,19 @@ pub fn evaluate_scene(
     let frames = track_frames(&rec, config, table)?;
     let seconds = rec.frames.len() as f64 / f64::from(rec.rate);
     let (counts, worst) = score(&frames, &truths, seconds);
+    if let Some(plots) = plots {
+        let name = entry
+            .file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        crate::plots::multi_talker_plot(
+            &plots.join(format!("{name}.png")),
+            &name,
+            &frames,
+            &truths,
+        )?;
+    }
     Ok(SceneScore {
         file: entry.file.display().to_string(),
         set: entry.set.clone(),
@@ -510,6 +537,19 @@ pub fn evaluate(
     layout: InputLayout,
     threads: usize,
 ) -> Result<Report> {
+    evaluate_with_plots(dir, config, table, layout, threads, None)
+}
+
+/// [`evaluate`], and with `plots` an existing folder, one PNG per scene in it
+/// ([`crate::plots::multi_talker_plot`]).
+pub fn evaluate_with_plots(
+    dir: &Path,
+    config: LocatorConfig,
+    table: ReferenceTable<'_>,
+    layout: InputLayout,
+    threads: usize,
+    plots: Option<&Path>,
+) -> Result<Report> {
     let entries = read_manifest(dir)?;
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::sync::Mutex::new(
@@ -522,7 +562,7 @@ pub fn evaluate(
             s.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(e) = entries.get(i) else { break };
-                let r = evaluate_scene(dir, e, config, table, layout);
+                let r = evaluate_scene_with_plot(dir, e, config, table, layout, plots);
                 if let Ok(mut v) = results.lock() {
                     v[i] = Some(r);
                 }
@@ -614,12 +654,23 @@ pub fn run(a: &crate::commands::eval::EvalArgs) -> Result<()> {
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    if a.plots.is_some() {
-        return Err(SimError::Usage(
-            "--plots: not available for multi-talker folders".into(),
-        ));
+    if let Some(dir) = &a.plots {
+        if dir.exists() && !dir.is_dir() {
+            return Err(SimError::Usage(format!(
+                "--plots {}: exists and is not a folder",
+                dir.display()
+            )));
+        }
+        std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
     }
-    let report = evaluate(&a.dir, config, table, a.input_layout, threads)?;
+    let report = evaluate_with_plots(
+        &a.dir,
+        config,
+        table,
+        a.input_layout,
+        threads,
+        a.plots.as_deref(),
+    )?;
     if a.json {
         let json =
             serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?;
