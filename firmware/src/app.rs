@@ -31,9 +31,11 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
 
-/// Lines waiting for the UART (≈ 85 ms of estimates at one per 21.3 ms; a calibration line, ≈ 15 ms
+/// Lines waiting for the UART (≈ 64 ms of estimates at one per 16 ms; a calibration line, ≈ 15 ms
 /// on the wire every 10 s, fits in that slack; with the multi-talker tracks a track line, at most
-/// 98 bytes, follows each frame line: both fit a hop at 115200 baud).
+/// 98 bytes, follows each frame line: a hop of 16 ms carries 184 bytes at 115200 baud, enough for a
+/// typical pair, and the queue absorbs the longest ones; what still does not fit is dropped and
+/// counted in `drop`).
 const QUEUE_LEN: usize = if MULTI_TALKER { 8 } else { 4 };
 
 /// The multi-talker tracks run and track lines are sent: the build enabled the `multi-talker`
@@ -96,7 +98,7 @@ fn init_locator() -> &'static mut Locator<'static> {
         config.multi_track = cma_core::multi_track::MultiTrack::DEFAULT;
     }
     // Note(unwrap-like panic): the embedded configuration (checked by build.rs) and the embedded
-    // table (checked when it was built in) are valid at 48 kHz; a failure here is a build defect and
+    // table (checked when it was built in) are valid at 16 kHz; a failure here is a build defect and
     // panics at boot.
     let locator = match Locator::init_in_place(
         LOCATOR.uninit(),
@@ -129,7 +131,7 @@ fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
 /// Captures blocks, runs the localizer, queues the estimates.
 ///
 /// Real-time contract: each call of `AudioIn::read` returns [`BLOCK_FRAMES`] sample frames; the
-/// blocks that complete an analysis hop (1024 input samples, 21.3 ms at 48 kHz) carry its analysis,
+/// blocks that complete an analysis hop (256 input samples, 16 ms at 16 kHz) carry its analysis,
 /// which must end before the board's capture ring (`board::RING_FRAMES`) fills. When it does fill,
 /// the board realigns the capture and reports an overrun, which is counted and appears in the `ovr`
 /// field of the following frames; the localizer keeps its state (its sample clock then runs behind
@@ -171,7 +173,7 @@ async fn dsp_task(
             }
             estimated = Some(e.centre_sample);
         });
-        // A block (32 sample frames) completes at most one hop (1024), so these are the tracks
+        // A block (32 sample frames) completes at most one hop (256), so these are the tracks
         // of that estimate.
         if let (true, Some(centre_sample)) = (MULTI_TALKER, estimated) {
             let tracks = TracksLine::from_tracks(locator.talker_tracks(), 0, centre_sample);

@@ -4,10 +4,10 @@
 //!
 //! | signal            | pin  | peripheral (AF)      | ADC A (omni, card 0°) | ADC B (card 120°, 240°) |
 //! |-------------------|------|----------------------|-----------------------|-------------------------|
-//! | MCK 12.288 MHz    | PA3  | I2S2_MCK (AF5)       | SCKI                  | SCKI                    |
-//! | BCK 3.072 MHz     | PB13 | I2S2_CK (AF5), out   | BCK                   | BCK                     |
+//! | MCK 4.096 MHz     | PA3  | I2S2_MCK (AF5)       | SCKI                  | SCKI                    |
+//! | BCK 1.024 MHz     | PB13 | I2S2_CK (AF5), out   | BCK                   | BCK                     |
 //! | BCK, slave input  | PB3  | I2S3_CK (AF6), in    | — (wire to PB13)      | — (wire to PB13)        |
-//! | LRCK 48 kHz       | PB12 | I2S2_WS (AF5), out   | LRCK                  | LRCK                    |
+//! | LRCK 16 kHz       | PB12 | I2S2_WS (AF5), out   | LRCK                  | LRCK                    |
 //! | LRCK, slave input | PA15 | I2S3_WS (AF6), in    | — (wire to PB12)      | — (wire to PB12)        |
 //! | data A            | PB15 | I2S2_SD (AF5), in    | DOUT                  |                         |
 //! | data B            | PB5  | I2S3_SD (AF6), in    |                       | DOUT                    |
@@ -33,13 +33,13 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
-/// Input sample rate, Hz (the ADCs' LRCK).
-pub const SAMPLE_RATE_HZ: u32 = 48_000;
+/// Input sample rate, Hz (the ADCs' LRCK; nominal: the clock plan gives 15 997 Hz).
+pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block (0.67 ms at 48 kHz).
+/// Sample frames per DSP block (2 ms at 16 kHz).
 pub const BLOCK_FRAMES: usize = 32;
-/// Sample frames held by each DMA ring buffer (5.3 ms at 48 kHz): the longest the DSP task may lag
+/// Sample frames held by each DMA ring buffer (16 ms at 16 kHz): the longest the DSP task may lag
 /// behind before an overrun.
 pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
 /// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
@@ -61,8 +61,10 @@ static RING_A: ConstStaticCell<[u16; RING_WORDS]> = ConstStaticCell::new([0; RIN
 static RING_B: ConstStaticCell<[u16; RING_WORDS]> = ConstStaticCell::new([0; RING_WORDS]);
 
 /// Clock plan: HSE 25 MHz → PLL (M 25, N 200, P 2) → SYSCLK 100 MHz, APB1 50 MHz, APB2 100 MHz;
-/// PLLI2S (M 25, N 258, R 3) → 86 MHz I2S kernel clock → MCK = 86 MHz / 7 = 12.286 MHz,
-/// fs = MCK / 256 = 47.991 kHz (−0.019 %, the closest the F411 gets to 48 kHz from a 25 MHz crystal).
+/// PLLI2S (M 25, N 258, R 3) → 86 MHz I2S kernel clock → MCK = 86 MHz / 21 = 4.095 MHz (I2SDIV 10,
+/// ODD 1, as embassy computes it), fs = MCK / 256 = 15.997 kHz (−0.019 %; the core runs at its
+/// nominal 16 kHz, the azimuth does not depend on it). The PCM1808 class ADCs take SCKI = 256 fs at
+/// 16 kHz; BCK = 64 fs = 1.024 MHz.
 fn clock_config() -> Config {
     use rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv};
     use rcc::{PllRDiv, PllSource, Sysclk};

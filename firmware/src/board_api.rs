@@ -14,6 +14,11 @@
 
 use cma_core::CHANNELS;
 
+/// Sample rate of every board's ADCs, Hz: the core's analysis rate at 16 kHz input, so the ADCs'
+/// own decimation filters do the work of the core's decimator (which the core skips at this rate)
+/// and the board computes exactly what `host-sim` computes on 16 kHz recordings.
+pub const SAMPLE_RATE_HZ: u32 = 16_000;
+
 /// The capture lost samples (a DMA ring was lapped, or an I2S receiver overran).
 ///
 /// When a [`SampleSource`] returns it, the source has already realigned itself: the next block starts

@@ -2,8 +2,8 @@
 //!
 //! | signal              | MCU pin (NUCLEO header) | peripheral (AF)        | TLV320ADC5140        |
 //! |---------------------|-------------------------|------------------------|----------------------|
-//! | BCLK 6.143 MHz      | PB12 (CN10-16)          | SAI1_SCK_B (AF6), out  | BCLK                 |
-//! | FSYNC 47.991 kHz    | PB9 (CN10-5)            | SAI1_FS_B (AF6), out   | FSYNC                |
+//! | BCLK 2.048 MHz      | PB12 (CN10-16)          | SAI1_SCK_B (AF6), out  | BCLK                 |
+//! | FSYNC 15.997 kHz    | PB9 (CN10-5)            | SAI1_FS_B (AF6), out   | FSYNC                |
 //! | TDM data            | PA9 (CN10-21, D8)       | SAI1_SD_B (AF6), in    | SDOUT                |
 //! | control SCL         | PB8 (CN10-3, D15)       | I2C1_SCL (AF4)         | SCL (2.2 kΩ to 3.3 V) |
 //! | control SDA         | PB7 (CN7-21)            | I2C1_SDA (AF4)         | SDA (2.2 kΩ to 3.3 V) |
@@ -40,14 +40,14 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
-/// Input sample rate, Hz, as the core sees it (the frame sync runs at 47 991 Hz: see
+/// Input sample rate, Hz, as the core sees it (the frame sync runs at 15 997 Hz: see
 /// [`start_sai_clock`]).
-pub const SAMPLE_RATE_HZ: u32 = 48_000;
+pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block (0.67 ms at 48 kHz).
+/// Sample frames per DSP block (2 ms at 16 kHz).
 pub const BLOCK_FRAMES: usize = 32;
-/// Sample frames held by the DMA ring (5.3 ms at 48 kHz): the longest the DSP task may lag behind
+/// Sample frames held by the DMA ring (16 ms at 16 kHz): the longest the DSP task may lag behind
 /// before an overrun.
 pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
 /// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
@@ -100,9 +100,10 @@ const POLLS: u32 = 200_000;
 /// no SAI1 clock selection for this chip.
 ///
 /// HSE 8 MHz / M 4 = 2 MHz → × N 172 = 344 MHz → / Q 7 / PLLSAIDIVQ 1 = 49.1429 MHz SAI clock; the
-/// SAI's MCKDIV 2 (÷ 4) gives a 12.2857 MHz master clock = 256 fs, so fs = 47 991 Hz (−0.019 %,
-/// the closest to 48 kHz from 8 MHz with these dividers; the core runs at its nominal 48 kHz, the
-/// azimuth does not depend on it) and BCLK = 128 fs = 6.143 MHz for 4 slots of 32 bits.
+/// SAI's MCKDIV 6 (÷ 12) gives a 4.0952 MHz master clock = 256 fs, so fs = 15 997 Hz (−0.019 %;
+/// the core runs at its nominal 16 kHz, the azimuth does not depend on it) and BCLK = 128 fs =
+/// 2.048 MHz for 4 slots of 32 bits (a BCLK-to-FSYNC ratio the ADC's automatic clock detection
+/// supports at 16 kHz).
 fn start_sai_clock() -> bool {
     use pac::rcc::vals::{Pllm, Plln, Pllp, Pllq, Pllsaidivq, Sai1src};
     pac::RCC.cr().modify(|w| w.set_pllsaion(false));
@@ -372,7 +373,7 @@ pub fn init() -> Board {
     cfg.frame_sync_definition = sai::FrameSyncDefinition::StartOfFrame;
     cfg.frame_length = tdm::FRAME_BITS as u16;
     cfg.clock_strobe = sai::ClockStrobe::Rising;
-    cfg.master_clock_divider = sai::MasterClockDivider::DIV2;
+    cfg.master_clock_divider = sai::MasterClockDivider::DIV6;
     cfg.nodiv = false;
     cfg.fifo_threshold = sai::FifoThreshold::Quarter;
     let (_block_a, block_b) = sai::split_subblocks(p.SAI1);

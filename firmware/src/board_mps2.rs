@@ -3,7 +3,7 @@
 //!
 //! | board interface   | emulated by                                                              |
 //! |-------------------|--------------------------------------------------------------------------|
-//! | sample blocks     | a 4-channel 48 kHz WAV file read through semihosting, paced by the clock |
+//! | sample blocks     | a 4-channel 16 kHz WAV file read through semihosting, paced by the clock |
 //! | frame writer      | CMSDK APB UART0 (0x4000_4000; QEMU `-serial`), paced at 115 200 baud     |
 //! | watchdog          | CMSDK APB watchdog (0x4000_8000, WDOGCLK = 25 MHz), reset enabled        |
 //! | time              | SysTick (processor clock) as the `embassy-time` driver, 100 µs ticks     |
@@ -39,7 +39,7 @@ use embassy_time::{Duration, Instant, Timer};
 use static_cell::StaticCell;
 
 /// Input sample rate, Hz (the WAV must have it).
-pub const SAMPLE_RATE_HZ: u32 = 48_000;
+pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 /// UART baud rate of the frame stream (the transmitter is paced at it).
 pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block, as on the STM32F411CE board (`board.rs`).

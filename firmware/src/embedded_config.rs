@@ -31,6 +31,11 @@ mod tests {
 
     /// The board's localizer accepts the configuration at its rate with the ideal table.
     fn cma_config_check(c: &LocatorConfig) -> bool {
-        cma_core::Locator::new(*c, cma_core::ReferenceTable::ideal_5deg(), 48_000).is_ok()
+        cma_core::Locator::new(
+            *c,
+            cma_core::ReferenceTable::ideal_5deg(),
+            crate::board_api::SAMPLE_RATE_HZ,
+        )
+        .is_ok()
     }
 }

@@ -20,9 +20,9 @@ pub const FAULT_ADDR: u32 = 0x2030_0000;
 /// the fault word, outside the linked sections and not written by QEMU's loader.
 pub const STATE_ADDR: u32 = 0x2030_0010;
 
-/// Capture frame (from boot) at which the capture faults are injected (1.0 s at 48 kHz).
-pub const FAULT_AT_FRAME: u64 = 48_000;
-/// How long the DSP task stalls in [`Fault::CaptureStall`], µs (the ring holds 5.3 ms).
+/// Capture frame (from boot) at which the capture faults are injected (1.0 s at 16 kHz).
+pub const FAULT_AT_FRAME: u64 = 16_000;
+/// How long the DSP task stalls in [`Fault::CaptureStall`], µs (the ring holds 16 ms).
 pub const CAPTURE_STALL_US: u64 = 20_000;
 /// When the UART transmitter is held in [`Fault::UartStall`], µs after boot.
 pub const UART_STALL_FROM_US: u64 = 1_000_000;

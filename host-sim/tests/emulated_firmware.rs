@@ -404,7 +404,7 @@ fn emulated_firmware_matches_the_host_and_survives_faults() {
     let wav = dir.join("scene.wav");
     let st = Command::new(BIN)
         .args(["scene", "--synth", "6", "--azimuth", "40", "--snr", "10"])
-        .args(["--rate", "48000", "--out"])
+        .args(["--rate", "16000", "--out"])
         .arg(&wav)
         .output()
         .expect("run host-sim scene");

@@ -1,5 +1,5 @@
 //! Input kinds for the per-hop cost of the firmware's configuration: speech, clipping bursts, NaN
-//! bursts, silence and full-scale noise, block by block at 48 kHz.
+//! bursts, silence and full-scale noise, block by block at the board's rate (or any other).
 //!
 //! Every kind but the NaN bursts is what the board's 24-bit ADCs can deliver: values on the grid of
 //! 24-bit codes, saturated to the codes' range (−1 … 1 − 2⁻²³). The NaN bursts cannot come from the
@@ -67,18 +67,29 @@ fn quantise(v: f32) -> f32 {
 #[derive(Debug, Clone)]
 pub struct Input {
     kind: InputKind,
+    /// Sample frames per NaN burst period (0.5 s) and per burst (50 ms).
+    burst_period: u32,
+    burst_len: u32,
     scene: Scene,
     rng: u32,
     n: u32,
 }
 
 impl Input {
-    /// The start of `kind`'s signal.
+    /// The start of `kind`'s signal at 48 kHz.
     #[must_use]
     pub fn new(kind: InputKind) -> Self {
+        Self::at_rate(kind, crate::scene::RATE_HZ)
+    }
+
+    /// The start of `kind`'s signal at `rate_hz` (> 0).
+    #[must_use]
+    pub fn at_rate(kind: InputKind, rate_hz: u32) -> Self {
         Self {
             kind,
-            scene: Scene::new(),
+            burst_period: (rate_hz / 2).max(1),
+            burst_len: rate_hz / 20,
+            scene: Scene::at_rate(rate_hz),
             rng: 0x9e37_79b9,
             n: 0,
         }
@@ -119,7 +130,7 @@ impl Input {
                 if self.kind == InputKind::NanBursts {
                     for (i, frame) in out.iter_mut().enumerate() {
                         let n = self.n + i as u32;
-                        if n % 24_000 < 2_400 && n.is_multiple_of(16) {
+                        if n % self.burst_period < self.burst_len && n.is_multiple_of(16) {
                             let bad = [f32::NAN, f32::INFINITY, f32::NAN, f32::NEG_INFINITY];
                             frame[(n / 16) as usize % CHANNELS] = bad[(n / 64) as usize % 4];
                         }
@@ -137,29 +148,39 @@ mod tests {
 
     #[test]
     fn kinds_have_their_properties() {
-        let mut block = [[0.0f32; CHANNELS]; 48_000];
-        for kind in InputKind::ALL {
-            let mut input = Input::new(kind);
-            input.fill(&mut block);
-            let values = block.iter().flatten();
-            let non_finite = values.clone().filter(|v| !v.is_finite()).count();
-            let at_full_scale = values
-                .clone()
-                .filter(|v| v.is_finite() && v.abs() >= 0.999)
-                .count();
-            let on_grid = values
-                .clone()
-                .filter(|v| v.is_finite())
-                .all(|v| (v * CODE_SCALE).fract() == 0.0 && (-1.0..1.0).contains(v));
-            assert!(on_grid, "{kind:?}");
-            match kind {
-                InputKind::NanBursts => assert_eq!(non_finite, 2 * 2_400 / 16, "{kind:?}"),
-                _ => assert_eq!(non_finite, 0, "{kind:?}"),
-            }
-            match kind {
-                InputKind::ClippingBursts => assert!(at_full_scale > 10_000, "{at_full_scale}"),
-                InputKind::FullScaleNoise => assert!(at_full_scale > 50, "{at_full_scale}"),
-                _ => assert_eq!(at_full_scale, 0, "{kind:?}"),
+        let mut buf = [[0.0f32; CHANNELS]; 48_000];
+        for rate in [48_000u32, 16_000] {
+            let block = &mut buf[..rate as usize];
+            for kind in InputKind::ALL {
+                let mut input = Input::at_rate(kind, rate);
+                input.fill(block);
+                let values = block.iter().flatten();
+                let non_finite = values.clone().filter(|v| !v.is_finite()).count();
+                let at_full_scale = values
+                    .clone()
+                    .filter(|v| v.is_finite() && v.abs() >= 0.999)
+                    .count();
+                let on_grid = values
+                    .clone()
+                    .filter(|v| v.is_finite())
+                    .all(|v| (v * CODE_SCALE).fract() == 0.0 && (-1.0..1.0).contains(v));
+                assert!(on_grid, "{kind:?} at {rate} Hz");
+                // One second: two bursts of 50 ms, one bad value in every 16th sample frame.
+                let bursts = 2 * (rate as usize / 20) / 16;
+                match kind {
+                    InputKind::NanBursts => assert_eq!(non_finite, bursts, "{kind:?} at {rate} Hz"),
+                    _ => assert_eq!(non_finite, 0, "{kind:?} at {rate} Hz"),
+                }
+                let (clipped, extremes) = (rate as usize / 5, rate as usize / 1000);
+                match kind {
+                    InputKind::ClippingBursts => {
+                        assert!(at_full_scale > clipped, "{at_full_scale}")
+                    }
+                    InputKind::FullScaleNoise => {
+                        assert!(at_full_scale > extremes, "{at_full_scale}")
+                    }
+                    _ => assert_eq!(at_full_scale, 0, "{kind:?} at {rate} Hz"),
+                }
             }
         }
     }

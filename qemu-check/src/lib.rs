@@ -82,6 +82,10 @@ pub const BLOCK: usize = 256;
 /// this equal to the firmware's constant).
 pub const FIRMWARE_BLOCK: usize = 32;
 
+/// Sample rate of the firmware's ADCs, Hz (a test keeps this equal to the firmware's constant): the
+/// rate of the cost runs ([`run_hops`], [`Mode::Pipeline`], the stage bench).
+pub const FIRMWARE_RATE_HZ: u32 = 16_000;
+
 /// The product default with the multi-talker tracks on.
 #[must_use]
 pub fn multi_talker_config() -> cma_core::LocatorConfig {
@@ -126,7 +130,9 @@ pub const CHECK_KIND_HOPS: usize = 120;
 /// Never for a valid variant.
 pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
     if let Some(config) = check_config(variant) {
-        run_scene_with(config, scene::SCENE_HOPS, true, on_estimate);
+        // At 48 kHz, so that the check covers the decimator too (the input kinds below run at the
+        // firmware's rate).
+        run_scene_with(config, scene::RATE_HZ, scene::SCENE_HOPS, true, on_estimate);
         return true;
     }
     let Some(kind) = variant
@@ -153,39 +159,40 @@ pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
     true
 }
 
-/// Generates `hops` hops of the scene block by block and, when `process` is set, runs them through a
-/// default [`cma_core::Locator`] at 48 kHz, calling `on_estimate` for each estimate.
+/// Generates `hops` hops of the scene at the firmware's rate ([`FIRMWARE_RATE_HZ`]) block by block
+/// and, when `process` is set, runs them through a default [`cma_core::Locator`], calling
+/// `on_estimate` for each estimate.
 ///
 /// # Panics
-/// Never for the default configuration (it is valid at 48 kHz).
+/// Never for the default configuration (it is valid at the firmware's rate).
 pub fn run_scene(hops: usize, process: bool, on_estimate: impl FnMut(&Estimate)) {
     run_scene_with(
         cma_core::LocatorConfig::default(),
+        FIRMWARE_RATE_HZ,
         hops,
         process,
         on_estimate,
     );
 }
 
-/// [`run_scene`] with the localizer configured by `config`.
+/// [`run_scene`] with the localizer configured by `config`, at `rate_hz`.
 ///
 /// # Panics
-/// If `config` is not valid at 48 kHz (the [`check_config`] variants are).
+/// If `config` is not valid at `rate_hz` (the [`check_config`] variants are valid at 48 kHz and at
+/// the firmware's rate).
 pub fn run_scene_with(
     config: cma_core::LocatorConfig,
+    rate_hz: u32,
     hops: usize,
     process: bool,
     mut on_estimate: impl FnMut(&Estimate),
 ) {
-    let mut locator = cma_core::Locator::new(
-        config,
-        cma_core::ReferenceTable::ideal_5deg(),
-        scene::RATE_HZ,
-    )
-    .expect("configuration valid at 48 kHz");
-    let mut scene = scene::Scene::new();
+    let mut locator =
+        cma_core::Locator::new(config, cma_core::ReferenceTable::ideal_5deg(), rate_hz)
+            .expect("configuration valid at this rate");
+    let mut scene = scene::Scene::at_rate(rate_hz);
     let mut block = [[0.0f32; cma_core::CHANNELS]; BLOCK];
-    let mut left = hops * scene::HOP_SAMPLES;
+    let mut left = hops * scene::hop_samples(rate_hz);
     while left > 0 {
         let n = left.min(BLOCK);
         scene.fill(&mut block[..n]);
@@ -213,23 +220,23 @@ pub trait HopMarks {
 /// Longest block [`run_hops`] takes (one hop).
 pub const MAX_BLOCK: usize = scene::HOP_SAMPLES;
 
-/// Runs `hops` hops of `kind` through a default [`cma_core::Locator`] at 48 kHz in blocks of `block`
-/// sample frames (at most [`MAX_BLOCK`]; the firmware's is [`FIRMWARE_BLOCK`]), as the firmware
-/// calls it.
+/// Runs `hops` hops of `kind` through a default [`cma_core::Locator`] at the firmware's rate
+/// ([`FIRMWARE_RATE_HZ`]) in blocks of `block` sample frames (at most [`MAX_BLOCK`]; the firmware's
+/// is [`FIRMWARE_BLOCK`]), as the firmware calls it.
 ///
 /// # Panics
-/// Never (the default configuration is valid at 48 kHz).
+/// Never (the default configuration is valid at the firmware's rate).
 pub fn run_hops(kind: inputs::InputKind, hops: usize, block: usize, marks: &mut impl HopMarks) {
     let mut locator = cma_core::Locator::new(
         cma_core::LocatorConfig::default(),
         cma_core::ReferenceTable::ideal_5deg(),
-        scene::RATE_HZ,
+        FIRMWARE_RATE_HZ,
     )
-    .expect("configuration valid at 48 kHz");
-    let mut input = inputs::Input::new(kind);
+    .expect("configuration valid at the firmware's rate");
+    let mut input = inputs::Input::at_rate(kind, FIRMWARE_RATE_HZ);
     let mut buf = [[0.0f32; cma_core::CHANNELS]; MAX_BLOCK];
     let block = &mut buf[..block.clamp(1, MAX_BLOCK)];
-    for _ in 0..hops * scene::HOP_SAMPLES / block.len() {
+    for _ in 0..hops * scene::hop_samples(FIRMWARE_RATE_HZ) / block.len() {
         marks.pause();
         input.fill(block);
         core::hint::black_box(&*block);

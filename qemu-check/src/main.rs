@@ -23,7 +23,7 @@ mod target {
     use cortex_m_semihosting::{debug, hprintln};
     use qemu_check::{
         inputs::InputKind, multi_talker_config, run_check, run_hops, run_scene, run_scene_with,
-        stages::Bench, EstimateBits, HopMarks, Mode, FIRMWARE_BLOCK, MODE_ADDR,
+        stages::Bench, EstimateBits, HopMarks, Mode, FIRMWARE_BLOCK, FIRMWARE_RATE_HZ, MODE_ADDR,
     };
 
     // The mark functions: `scripts/cost.sh` finds them by name. Their `nop`s (an `asm!` each, which
@@ -97,7 +97,7 @@ mod target {
             }),
             Some(Mode::Generate) => run_scene(arg, false, |_| {}),
             Some(Mode::PipelineMultiTalker) => {
-                run_scene_with(multi_talker_config(), arg, true, |e| {
+                run_scene_with(multi_talker_config(), FIRMWARE_RATE_HZ, arg, true, |e| {
                     core::hint::black_box(e);
                 })
             }

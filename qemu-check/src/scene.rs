@@ -1,4 +1,5 @@
-//! A deterministic four-channel test scene at 48 kHz, generated in code (no fixture files).
+//! A deterministic four-channel test scene (48 kHz, or any rate the core takes), generated in code
+//! (no fixture files).
 //!
 //! A talker-like source — noise bursts and a buzzy harmonic voice under a syllable-rate envelope, with
 //! pauses — moves between a few azimuths; it reaches the capsules through ideal gains (omni 1,
@@ -7,14 +8,20 @@
 
 use cma_core::{CARDIOID_LOOK_DEG, CHANNELS};
 
-/// Input sample rate of the scene, Hz.
+/// Input sample rate of the scene of [`Scene::new`], Hz.
 pub const RATE_HZ: u32 = 48_000;
-/// Input samples per analysis hop of the core at 48 kHz.
+/// Input samples per analysis hop of the core at 48 kHz (the longest hop of any rate).
 pub const HOP_SAMPLES: usize = 1024;
 /// Length of the scene in hops (≈ 3.0 s).
 pub const SCENE_HOPS: usize = 141;
-/// Samples per source position segment (0.75 s).
-const SEGMENT: u32 = 36_000;
+
+/// Input samples per analysis hop of the core at `rate_hz` ([`cma_core::HOP`] times the decimation
+/// factor: 1024 at 48 kHz, 256 at 16 kHz); [`HOP_SAMPLES`] for a rate the core does not take.
+#[must_use]
+pub fn hop_samples(rate_hz: u32) -> usize {
+    cma_core::decimator::Decimator::for_rate(rate_hz)
+        .map_or(HOP_SAMPLES, |d| cma_core::HOP * d.factor() as usize)
+}
 /// Source azimuths of the segments, degrees.
 const AZIMUTHS_DEG: [f32; 4] = [30.0, 150.0, -100.0, 75.0];
 
@@ -42,6 +49,16 @@ impl Rng {
 #[derive(Debug, Clone)]
 pub struct Scene {
     n: u32,
+    /// Samples per syllable (¼ s), per source position segment (¾ s), and the voice's pitch step
+    /// per sample per hertz.
+    syllable: u32,
+    segment: u32,
+    per_sample: f32,
+    /// One-pole coefficients of the noise band pass and of the voice (their corner frequencies
+    /// fixed whatever the rate).
+    lp_a: f32,
+    hp_a: f32,
+    voice_a: f32,
     rng: Rng,
     gains: [f32; CHANNELS],
     /// Band-pass state of the noise component (two one-pole sections).
@@ -60,11 +77,26 @@ impl Default for Scene {
 }
 
 impl Scene {
-    /// The scene at sample 0.
+    /// The scene at sample 0, at 48 kHz.
     #[must_use]
     pub fn new() -> Self {
+        Self::at_rate(RATE_HZ)
+    }
+
+    /// The scene at sample 0, at `rate_hz` (> 0): the same sound, sampled at that rate.
+    #[must_use]
+    pub fn at_rate(rate_hz: u32) -> Self {
+        let rate_hz = rate_hz.max(1);
+        // A one-pole with coefficient a at 48 kHz: the coefficient with the same corner at rate_hz.
+        let scaled = |a: f32| 1.0 - libm::powf(1.0 - a, RATE_HZ as f32 / rate_hz as f32);
         Self {
             n: 0,
+            syllable: (rate_hz / 4).max(1),
+            segment: (rate_hz / 4 * 3).max(1),
+            per_sample: 1.0 / rate_hz as f32,
+            lp_a: scaled(0.3),
+            hp_a: scaled(0.04),
+            voice_a: scaled(0.2),
             rng: Rng(0x1234_5678),
             gains: [0.0; CHANNELS],
             lp: 0.0,
@@ -82,12 +114,12 @@ impl Scene {
     }
 
     /// Syllable envelope in [0, 1]: 4 syllables per second, a pause every fourth, smooth edges.
-    fn envelope(n: u32) -> f32 {
-        let syl = n / 12_000;
+    fn envelope(&self, n: u32) -> f32 {
+        let syl = n / self.syllable;
         if syl % 4 == 3 {
             return 0.0;
         }
-        let t = (n % 12_000) as f32 * (1.0 / 12_000.0);
+        let t = (n % self.syllable) as f32 / self.syllable as f32;
         let tri = 1.0 - libm::fabsf(2.0 * t - 1.0);
         tri * tri * (3.0 - 2.0 * tri)
     }
@@ -95,23 +127,23 @@ impl Scene {
     /// Writes the next `out.len()` sample frames (omni, card 0°, card 120°, card 240°; full scale ±1).
     pub fn fill(&mut self, out: &mut [[f32; CHANNELS]]) {
         for frame in out.iter_mut() {
-            if self.n.is_multiple_of(SEGMENT) {
-                let seg = (self.n / SEGMENT) as usize % AZIMUTHS_DEG.len();
+            if self.n.is_multiple_of(self.segment) {
+                let seg = (self.n / self.segment) as usize % AZIMUTHS_DEG.len();
                 self.set_position(AZIMUTHS_DEG[seg]);
             }
-            let env = Self::envelope(self.n);
+            let env = self.envelope(self.n);
             // Unvoiced part: white noise through a band pass of roughly 300 Hz–3 kHz.
             let w = self.rng.uniform();
-            self.lp += 0.3 * (w - self.lp);
-            self.hp += 0.04 * (self.lp - self.hp);
+            self.lp += self.lp_a * (w - self.lp);
+            self.hp += self.hp_a * (self.lp - self.hp);
             let noise = self.lp - self.hp;
             // Voiced part: a sawtooth whose pitch glides with the syllable, softened by a one-pole.
             let f0 = 110.0 + 60.0 * env;
-            self.phase += f0 * (1.0 / RATE_HZ as f32);
+            self.phase += f0 * self.per_sample;
             if self.phase >= 1.0 {
                 self.phase -= 1.0;
             }
-            self.voice += 0.2 * ((2.0 * self.phase - 1.0) - self.voice);
+            self.voice += self.voice_a * ((2.0 * self.phase - 1.0) - self.voice);
             let s = env * (0.25 * self.voice + 0.3 * noise);
             for (y, g) in frame.iter_mut().zip(self.gains) {
                 *y = g * s + 0.002 * self.rng.uniform();

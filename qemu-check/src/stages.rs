@@ -1,9 +1,11 @@
 //! The pipeline's stages one at a time, on a fixed analysis frame of the scene, for per-stage
 //! instruction counts (run a stage R times and once; the difference over R − 1 is its cost).
 //!
-//! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at 48 kHz.
+//! Every stage is set up as [`cma_core::Locator`] sets it up for [`LocatorConfig::default`] at the
+//! firmware's rate ([`crate::FIRMWARE_RATE_HZ`]).
 
-use crate::scene::{Scene, HOP_SAMPLES};
+use crate::scene::{hop_samples, Scene, HOP_SAMPLES, RATE_HZ};
+use crate::FIRMWARE_RATE_HZ;
 use cma_core::decimator::Decimator;
 use cma_core::front_end::FrontEnd;
 use cma_core::interpolation::argmax_parabolic;
@@ -70,7 +72,9 @@ impl Stage {
 
 /// Inputs and state of all stages (large: keep it in a `static` or on a big stack).
 pub struct Bench {
+    /// One hop of input (the first `hop` sample frames).
     input: [[f32; CHANNELS]; HOP_SAMPLES],
+    hop: usize,
     frame: [[f32; FRAME_LEN]; CHANNELS],
     scratch: [f32; FRAME_LEN],
     spectra: [[Complex32; NUM_BINS]; CHANNELS],
@@ -98,10 +102,12 @@ impl Bench {
     /// Never for the default configuration (the `expect`s document build-time invariants).
     pub fn new(out: &mut core::mem::MaybeUninit<Bench>) -> &mut Bench {
         let c = LocatorConfig::default();
-        let dec = Decimator::for_rate(48_000).expect("48 kHz is supported");
+        let dec = Decimator::for_rate(FIRMWARE_RATE_HZ).expect("the firmware's rate is supported");
+        let hop = hop_samples(FIRMWARE_RATE_HZ);
         let fs = dec.output_rate() as f32;
         let b = out.write(Bench {
             input: [[0.0; CHANNELS]; HOP_SAMPLES],
+            hop,
             frame: [[0.0; FRAME_LEN]; CHANNELS],
             scratch: [0.0; FRAME_LEN],
             spectra: [[Complex32::new(0.0, 0.0); NUM_BINS]; CHANNELS],
@@ -117,9 +123,11 @@ impl Bench {
             curves: c.curve_builder().expect("default SNR sets are valid"),
             table: ReferenceTable::ideal_5deg(),
         });
-        let mut scene = Scene::new();
-        for _ in 0..26 {
-            scene.fill(&mut b.input);
+        let mut scene = Scene::at_rate(FIRMWARE_RATE_HZ);
+        // 0.55 s of the scene (26 hops at 48 kHz).
+        let warm_up = 26 * HOP_SAMPLES * FIRMWARE_RATE_HZ as usize / RATE_HZ as usize / hop;
+        for _ in 0..warm_up {
+            scene.fill(&mut b.input[..hop]);
             b.front_end();
         }
         b.frame.copy_from_slice(b.front.frame());
@@ -141,7 +149,7 @@ impl Bench {
     }
 
     fn front_end(&mut self) {
-        let mut rest = &black_box(&self.input)[..];
+        let mut rest = &black_box(&self.input)[..self.hop];
         while !rest.is_empty() {
             let (used, ready) = self.front.feed(rest);
             black_box(ready);
