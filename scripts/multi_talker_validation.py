@@ -17,15 +17,22 @@ talker) with 3-D diffuse pink noise:
   rotated with it), 30 s.
 
 Then `host-sim eval OUT_DIR --json` scores the tracks, and the single-talker eval folder is scored
-with the stage off and on (the single-azimuth estimate must be identical).
+with the stage off and on (the single-azimuth estimate must be identical). As a reference for the
+tracks' error, the single-azimuth estimate (`host-sim locate`) is scored on the frames of the turn
+scenes where exactly one talker speaks (outside the 0.25 s collar): its mean error within 20° of
+that talker is what the room leaves for any track. `--plots DIR` also draws every scene's tracks
+(`host-sim eval --plots`). The summary table goes into docs/multi-talker.md and README.md (between
+their markers).
 
 Needs Python 3 with numpy, scipy and pyroomacoustics and a release build of host-sim. Not part of
 the test suite.
 
-Usage: scripts/multi_talker_validation.py OUT_DIR [--seeds N] [--seed S] [--doc docs/multi-talker.md]
+Usage: scripts/multi_talker_validation.py OUT_DIR [--seeds N] [--seed S] [--plots DIR]
+       [--doc docs/multi-talker.md] [--readme README.md]
 """
 
 import argparse
+import csv
 import glob
 import json
 import os
@@ -131,11 +138,89 @@ def build(out, seeds, seed0):
     return rooms
 
 
+def read_truth(path):
+    """(times, azimuths, speaking) of a talker truth CSV (`t_s,azimuth_deg,speaking`)."""
+    t, az, sp = [], [], []
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            t.append(float(row["t_s"]))
+            az.append(float(row["azimuth_deg"]))
+            sp.append(row["speaking"] == "1")
+    return np.array(t), np.array(az), np.array(sp)
+
+
+def truth_at(truth, t):
+    i = max(int(np.searchsorted(truth[0], t, side="right")) - 1, 0)
+    return truth[1][i], bool(truth[2][i])
+
+
+def single_estimate_error(out, report, collar=0.25, tolerance=20.0):
+    """Per set of turn scenes: mean error (within `tolerance`) and share within it of the
+    single-azimuth estimate on frames where exactly one talker speaks, outside the collar."""
+    per_set = {}
+    for s in report["scene_scores"]:
+        if not s["set"].startswith("turns"):
+            continue
+        wav = os.path.join(out, s["file"])
+        base = wav[:-4]
+        truths, k = [], 1
+        while os.path.exists(f"{base}.talker{k}.csv"):
+            truths.append(read_truth(f"{base}.talker{k}.csv"))
+            k += 1
+        est = os.path.join(out, "single-estimate.csv")
+        run([HOST_SIM, "locate", wav, "--csv", est, "--quiet"])
+        errors, frames = per_set.setdefault(s["set"], ([], [0]))
+        with open(est) as f:
+            for row in csv.DictReader(f):
+                t = float(row["t_s"])
+                speaking = [i for i, tr in enumerate(truths) if truth_at(tr, t)[1]]
+                if len(speaking) != 1:
+                    continue
+                tr = truths[speaking[0]]
+                if not all(truth_at(tr, t + d)[1] for d in (-collar, collar)):
+                    continue
+                frames[0] += 1
+                e = abs(ism.wrap180(float(row["azimuth_deg"]) - truth_at(tr, t)[0]))
+                if e <= tolerance:
+                    errors.append(e)
+        os.remove(est)
+    return {k: (float(np.mean(e)) if e else float("nan"), len(e) / max(n[0], 1))
+            for k, (e, n) in per_set.items()}
+
+
 def pct(v):
     return f"{100 * v:.1f} %"
 
 
-def write_doc(doc, report, rooms, seeds, seed0, single_same):
+def summary_table(report):
+    lines = ["| set | scenes | recall | precision | mean error | ID switches / min | ID purity | worst ID |",
+             "|---|---|---|---|---|---|---|---|"]
+    for s in report["sets"]:
+        m = s["metrics"]
+        lines.append(
+            f"| {s['set']} | {s['scenes']} | {pct(m['recall'])} | {pct(m['precision'])} | "
+            f"{m['mean_error_deg']:.2f}° | {m['id_switches_per_min']:.2f} | {pct(m['id_purity'])} | "
+            f"{pct(m['worst_id_purity'])} |")
+    return lines
+
+
+def write_readme(readme, report, rooms, seeds, seed0):
+    begin = "<!-- multi-talker:begin (written by scripts/multi_talker_validation.py; do not edit by hand) -->"
+    end = "<!-- multi-talker:end -->"
+    text = open(readme).read()
+    if begin not in text or end not in text:
+        sys.exit(f"{readme}: no multi-talker markers")
+    lines = [begin,
+             f"Measured in image-source rooms (RT60 {min(r for _, r in rooms):.2f}–"
+             f"{max(r for _, r in rooms):.2f} s, {seeds} scenes per kind, seed {seed0}; matched within "
+             f"{report['tolerance_deg']:.0f}°):", ""] + summary_table(report) + [end]
+    head, rest = text.split(begin, 1)
+    tail = rest.split(end, 1)[1]
+    with open(readme, "w") as f:
+        f.write(head + "\n".join(lines) + tail)
+
+
+def write_doc(doc, report, rooms, seeds, seed0, single_same, single):
     sets = {s["set"]: s for s in report["sets"]}
     lines = [
         "<!-- generated by scripts/multi_talker_validation.py — do not edit -->",
@@ -145,17 +230,14 @@ def write_doc(doc, report, rooms, seeds, seed0, single_same):
         f"{min(r for _, r in rooms):.2f}–{max(r for _, r in rooms):.2f} s, talkers 1–2 m away and "
         "≥ 60° apart; matched within "
         f"{report['tolerance_deg']:.0f}°, collar {report['collar_s']} s "
-        "(`scripts/multi_talker_validation.py OUT`).",
+        f"(`scripts/multi_talker_validation.py OUT --seed {seed0} --seeds {seeds}`).",
         "",
-        "| set | scenes | recall | precision | mean error | ID switches / min | ID purity | worst ID |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for name, s in sets.items():
-        m = s["metrics"]
-        lines.append(
-            f"| {name} | {s['scenes']} | {pct(m['recall'])} | {pct(m['precision'])} | "
-            f"{m['mean_error_deg']:.2f}° | {m['id_switches_per_min']:.2f} | {pct(m['id_purity'])} | "
-            f"{pct(m['worst_id_purity'])} |")
+    ] + summary_table(report)
+    lines += ["", "The single-azimuth estimate on the same turn scenes, on frames where exactly one "
+              "talker speaks (outside the collar): the room's bias that any track inherits.", "",
+              "| set | single estimate: mean error within 20° | frames within 20° |", "|---|---|---|"]
+    for name, (err, share) in sorted(single.items()):
+        lines.append(f"| {name} | {err:.2f}° | {pct(share)} |")
     lines += ["", "Against the targets (✓ met, ✗ missed):", "",
               "| set | recall | precision | mean error | ID purity | switches / min |",
               "|---|---|---|---|---|---|"]
@@ -197,6 +279,8 @@ def main():
     p.add_argument("--seed", type=int, default=3000)
     p.add_argument("--doc", default=os.path.join(ROOT, "docs", "multi-talker.md"))
     p.add_argument("--no-build", action="store_true", help="score an existing folder")
+    p.add_argument("--readme", default=os.path.join(ROOT, "README.md"))
+    p.add_argument("--plots", help="also draw every scene's tracks into this folder")
     args = p.parse_args()
     if not os.access(HOST_SIM, os.X_OK):
         sys.exit(f"no host-sim at {HOST_SIM} (cargo build --release -p host-sim)")
@@ -209,7 +293,11 @@ def main():
     json.dump(report, open(os.path.join(args.out, "report.json"), "w"), indent=1)
     off = run([HOST_SIM, "eval", EVAL, "--json"]).stdout
     on = run([HOST_SIM, "eval", EVAL, "--json", "--multi-talker", "on"]).stdout
-    write_doc(args.doc, report, rooms, args.seeds, args.seed, off == on)
+    single = single_estimate_error(args.out, report)
+    write_doc(args.doc, report, rooms, args.seeds, args.seed, off == on, single)
+    write_readme(args.readme, report, rooms, args.seeds, args.seed)
+    if args.plots:
+        run([HOST_SIM, "eval", args.out, "--plots", args.plots])
     print(run([HOST_SIM, "eval", args.out]).stdout)
 
 
