@@ -212,6 +212,56 @@ mod host {
     }
 }
 
+/// The stack's high-water mark, measured: [`stack_watermark::paint`] fills the stack below the
+/// current stack pointer with a pattern at boot (before the localizer is built), and
+/// [`stack_watermark::used`] finds the deepest word that no longer holds it. flip-link places the
+/// stack below the statics, so its top is `_stack_start` and it grows towards the start of RAM.
+mod stack_watermark {
+    /// The pattern (unlikely as data: not a small integer, not a normal float's common bits).
+    const PAINT: u32 = 0xA5C3_5A3C;
+    /// Bytes below the stack's top that are painted and scanned (far more than the application
+    /// needs; a deeper stack is reported as at least this).
+    pub const SPAN: u32 = 64 * 1024;
+    /// Bytes left unpainted just below the stack pointer of `paint` (its own frame's callees).
+    const GUARD: u32 = 256;
+
+    extern "C" {
+        /// Top of the stack (cortex-m-rt's linker script; flip-link moves it below the statics).
+        static _stack_start: u32;
+    }
+
+    fn top() -> u32 {
+        // Note: the address of a linker symbol; its value is never read.
+        core::ptr::addr_of!(_stack_start) as u32
+    }
+
+    /// Paints `[top − SPAN, sp − GUARD)`.
+    pub fn paint() {
+        let bottom = top() - SPAN;
+        let end = cortex_m::register::msp::read().saturating_sub(GUARD) & !3;
+        let mut a = bottom;
+        while a < end {
+            // Note(unsafe): `a` is word-aligned RAM of the stack region below the live stack
+            // (flip-link: nothing else lives there), written only by this loop before anything
+            // below the current frame is in use.
+            unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
+            a += 4;
+        }
+    }
+
+    /// Bytes of stack used since [`paint`]: from the top to the deepest word not holding the
+    /// pattern (`SPAN` when none holds it).
+    pub fn used() -> u32 {
+        let bottom = top() - SPAN;
+        let mut a = bottom;
+        // Note(unsafe): reads of word-aligned RAM of the stack region below the current frame.
+        while a < top() && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
+            a += 4;
+        }
+        top() - a
+    }
+}
+
 /// Writes a report line and exits QEMU with status 1.
 fn fail(what: &str) -> ! {
     hprintln!("mps2: error: {}", what);
@@ -329,6 +379,11 @@ impl AudioIn {
         hprintln!(
             "mps2: end of input at frame {}",
             self.first_frame + self.next
+        );
+        hprintln!(
+            "mps2: stack high-water mark {} bytes (of {} watched)",
+            stack_watermark::used(),
+            stack_watermark::SPAN
         );
         watchdog_registers::disable();
         Timer::after(Duration::from_micros(DRAIN_US)).await;
@@ -509,6 +564,7 @@ pub struct Board {
 /// Starts the clock, the UART and the capture (opens and checks the WAV named on the semihosting
 /// command line); a missing or unsuitable WAV ends QEMU with status 1 and a report line.
 pub fn init() -> Board {
+    stack_watermark::paint();
     // Note(unwrap-like): `init` runs once, so the core peripherals are still there.
     let Some(core) = cortex_m::Peripherals::take() else {
         fail("core peripherals taken twice")
