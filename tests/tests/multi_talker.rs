@@ -277,10 +277,17 @@ fn eval_plots_of_a_multi_talker_folder_draw_one_png_per_scene() {
         // Title, legend and chart: at least 1000 × 500 pixels; a blank image of that size
         // compresses to a few kilobytes, dots and lines make it larger.
         assert!(w >= 1000 && h >= 500, "{}: {w} × {h}", png.display());
-        assert!(bytes.len() > 10_000, "{}: {} bytes", png.display(), bytes.len());
+        assert!(
+            bytes.len() > 10_000,
+            "{}: {} bytes",
+            png.display(),
+            bytes.len()
+        );
     }
     assert_eq!(
-        std::fs::read_dir(dir.path().join("plots/sub")).unwrap().count(),
+        std::fs::read_dir(dir.path().join("plots/sub"))
+            .unwrap()
+            .count(),
         2,
         "one PNG per scene, nothing else"
     );
@@ -291,7 +298,10 @@ fn eval_plots_of_a_multi_talker_folder_draw_one_png_per_scene() {
         Err(e) => {
             assert_eq!(e.exit_code(), 2, "{e}");
             let text = e.to_string();
-            assert!(text.contains(&file) && text.contains("not a folder"), "{text}");
+            assert!(
+                text.contains(&file) && text.contains("not a folder"),
+                "{text}"
+            );
         }
         Ok(()) => panic!("--plots {file} succeeded"),
     }

@@ -58,8 +58,12 @@ fn draw_legend(
         let x = 10 + (i as i32 % per_row) * column_width;
         let y = 12 + (i as i32 / per_row) * 20;
         marker(area, (x, y))?;
-        area.draw(&Text::new(label.as_str(), (x + 26, y - 7), ("sans-serif", 14)))
-            .map_err(|e| format!("{e:?}"))?;
+        area.draw(&Text::new(
+            label.as_str(),
+            (x + 26, y - 7),
+            ("sans-serif", 14),
+        ))
+        .map_err(|e| format!("{e:?}"))?;
     }
     Ok(())
 }
@@ -266,7 +270,9 @@ fn speaking_runs(truth: &TalkerTruth, t_end: f64, n: usize) -> Vec<Vec<(f64, f64
     for i in 0..=n {
         let t = i as f64 * t_end / n as f64;
         let az = truth.azimuth_at(t);
-        let wraps = cur.last().is_some_and(|p: &(f64, f64)| (p.1 - az).abs() > 180.0);
+        let wraps = cur
+            .last()
+            .is_some_and(|p: &(f64, f64)| (p.1 - az).abs() > 180.0);
         if !truth.speaking_at(t) || wraps {
             if !cur.is_empty() {
                 runs.push(std::mem::take(&mut cur));
