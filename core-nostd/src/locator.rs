@@ -34,8 +34,9 @@ use crate::intensity::IntensityVector;
 use crate::multi_track::{MultiTrackState, TalkerTrack};
 use crate::noise_floor::NoiseFloor;
 use crate::reference_table::ReferenceTable;
+use crate::similarity::PeakFeature;
 use crate::similarity_frame::SimilarityFrame;
-use crate::{CHANNELS, FRAME_LEN, HOP};
+use crate::{CHANNELS, FRAME_LEN, HOP, MAX_PEAKS};
 use core::mem::MaybeUninit;
 
 pub use crate::similarity_frame::FrameDiagnostics;
@@ -149,7 +150,8 @@ impl<'t> Locator<'t> {
         let frames_per_s = self.analysis_rate() as f32 / HOP as f32;
         self.noise_floor = NoiseFloor::new(&self.config.noise_gate, frames_per_s);
         self.frame_onset = FrameOnsetState::new(&self.config.frame_onset);
-        self.similarity.reset_calibration();
+        self.similarity
+            .reset_calibration(self.config.capsule_calibration);
     }
 
     /// Validates and applies the configuration and resets the front end (input guard, decimator,
@@ -292,7 +294,7 @@ impl<'t> Locator<'t> {
             Method::Fdiv | Method::Tdiv => {
                 let iv =
                     self.intensity
-                        .process(level.usable, self.front.frame(), &mut self.spectra);
+                        .process(c, level.usable, self.front.frame(), &mut self.spectra);
                 (
                     iv.azimuth_deg,
                     iv.azimuth_raw_deg,
@@ -320,10 +322,14 @@ impl<'t> Locator<'t> {
     fn similarity_frame(&mut self, level: &Level, flags: &mut Flags) -> (f32, f32, f32) {
         let (gate, onset) = self.similarity_gates(level);
         let c = &self.config;
+        // The frame's usable peaks: per-frame scratch on the stack (static RAM is the scarcer).
+        let mut used = [PeakFeature::NONE; MAX_PEAKS];
         let frame = self.similarity.process(
+            c,
             self.front.frame(),
             &mut self.spectra,
             &self.table,
+            &mut used,
             gate,
             level.clean,
             self.tracker.talker(),
@@ -364,7 +370,7 @@ impl<'t> Locator<'t> {
         #[cfg(feature = "multi-talker")]
         if c.multi_track.enabled {
             let dominant = self.tracker.talker().map(|a| (a, b));
-            let peaks = self.similarity.used_peaks();
+            let peaks = &used[..frame.num_peaks];
             self.multi.update(&c.multi_track, peaks, gate, dominant);
         }
         (azimuth, raw.unwrap_or(azimuth), b)

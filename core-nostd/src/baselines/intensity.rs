@@ -3,7 +3,6 @@
 //! [`crate::combination::FdivSpread`]).
 
 use crate::cartesian_filter::CartesianFilter;
-use crate::combination::FdivSpread;
 use crate::config::{LocatorConfig, Method};
 use crate::fdiv::{fdiv_process, FdivState};
 use crate::frame_spectra::FrameSpectra;
@@ -11,23 +10,12 @@ use crate::peak_picker::PeakPicker;
 use crate::tdiv::{tdiv_process, IvEstimate, TdivState};
 use crate::{CHANNELS, FRAME_LEN};
 
-/// The settings of the stage, from the [`LocatorConfig`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Settings {
-    /// TDIV, else FDIV.
-    tdiv: bool,
-    tdiv_pole: f32,
-    fdiv_pole: f32,
-    fdiv_spread: FdivSpread,
-    /// FDIV's band, bins `lo_bin..=hi_bin` (the peak picker's).
-    lo_bin: usize,
-    hi_bin: usize,
-}
-
 /// The intensity-vector stage and its state.
 #[derive(Debug, Clone)]
 pub struct IntensityVector {
-    settings: Settings,
+    /// FDIV's band, bins `lo_bin..=hi_bin` (the peak picker's).
+    lo_bin: usize,
+    hi_bin: usize,
     fdiv: FdivState,
     tdiv: TdivState,
     /// The eq. 5.30 filter of the FDIV spread option.
@@ -47,14 +35,8 @@ impl IntensityVector {
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            settings: Settings {
-                tdiv: false,
-                tdiv_pole: 0.9,
-                fdiv_pole: 0.95,
-                fdiv_spread: FdivSpread::OFF,
-                lo_bin: PeakPicker::IDLE.lo_bin,
-                hi_bin: PeakPicker::IDLE.hi_bin,
-            },
+            lo_bin: PeakPicker::IDLE.lo_bin,
+            hi_bin: PeakPicker::IDLE.hi_bin,
             fdiv: FdivState::new(),
             tdiv: TdivState::new(),
             cartesian: CartesianFilter::new(),
@@ -62,17 +44,12 @@ impl IntensityVector {
         }
     }
 
-    /// Applies the settings of `config` at analysis rate `fs` Hz; leaves the state alone.
+    /// Sets FDIV's band from `config` at analysis rate `fs` Hz; leaves the state alone.
+    /// [`IntensityVector::process`] reads the rest of its settings from the same `config`.
     pub fn configure(&mut self, config: &LocatorConfig, fs: f32) {
         let band = PeakPicker::from_config(config, fs);
-        self.settings = Settings {
-            tdiv: config.method == Method::Tdiv,
-            tdiv_pole: config.tdiv_pole,
-            fdiv_pole: config.fdiv_pole,
-            fdiv_spread: config.fdiv_spread,
-            lo_bin: band.lo_bin,
-            hi_bin: band.hi_bin,
-        };
+        self.lo_bin = band.lo_bin;
+        self.hi_bin = band.hi_bin;
     }
 
     /// Zeroes the state (the settings stay).
@@ -83,10 +60,11 @@ impl IntensityVector {
         self.last_azimuth = 0.0;
     }
 
-    /// One frame (`spectra` is FDIV's workspace). An unusable frame keeps the last azimuth with
-    /// confidence 0 and leaves the state alone.
+    /// One frame with the method and settings of `c` (`spectra` is FDIV's workspace). An unusable
+    /// frame keeps the last azimuth with confidence 0 and leaves the state alone.
     pub fn process(
         &mut self,
+        c: &LocatorConfig,
         usable: bool,
         frame: &[[f32; FRAME_LEN]; CHANNELS],
         spectra: &mut FrameSpectra,
@@ -98,23 +76,17 @@ impl IntensityVector {
                 confidence: 0.0,
             };
         }
-        let s = &self.settings;
-        let iv = if s.tdiv {
-            tdiv_process(s.tdiv_pole, &mut self.tdiv, frame)
+        let (lo, hi) = (self.lo_bin, self.hi_bin);
+        let iv = if c.method == Method::Tdiv {
+            tdiv_process(c.tdiv_pole, &mut self.tdiv, frame)
         } else {
             spectra.transform_all(frame);
-            fdiv_process(
-                s.fdiv_pole,
-                &mut self.fdiv,
-                spectra.channels(),
-                s.lo_bin,
-                s.hi_bin,
-            )
+            fdiv_process(c.fdiv_pole, &mut self.fdiv, spectra.channels(), lo, hi)
         };
         // Thesis option: FDIV reliability from the circular std over bins (§5.2.2), off by default.
-        let iv = if !s.tdiv && s.fdiv_spread.enabled() {
-            s.fdiv_spread
-                .frame(&mut self.cartesian, spectra.channels(), s.lo_bin, s.hi_bin)
+        let iv = if c.method == Method::Fdiv && c.fdiv_spread.enabled() {
+            c.fdiv_spread
+                .frame(&mut self.cartesian, spectra.channels(), lo, hi)
         } else {
             iv
         };

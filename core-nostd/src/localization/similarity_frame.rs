@@ -6,17 +6,15 @@
 
 use crate::capsule_calibration::{CapsuleCalibration, CapsuleCalibrationState, CapsuleEstimate};
 use crate::config::LocatorConfig;
-use crate::curve_kernel::CurveKernel;
 use crate::direct_sound::{DirectSound, OnsetState};
 use crate::error::Error;
 use crate::estimate::Flags;
-use crate::frame_quality::FrameQuality;
 use crate::frame_spectra::FrameSpectra;
 use crate::interpolation::argmax_parabolic;
 use crate::peak_picker::{PeakPicker, Peaks};
 use crate::reference_table::ReferenceTable;
 use crate::refine_curve::{refine_distance_power, DistancePower};
-use crate::reliability::{curve_variance_with_sum, Reliability};
+use crate::reliability::curve_variance_with_sum;
 use crate::similarity::{normalise_frame_curve, CurveBuilder, PeakFeature, RowCache};
 use crate::spectrum::power;
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
@@ -40,26 +38,17 @@ pub struct FrameResult {
     pub b: f32,
     /// Interpolated argmax of the frame's curve (`None` without usable peaks).
     pub raw: Option<f32>,
-}
-
-/// The settings of the stage, from the [`LocatorConfig`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Settings {
-    direct_sound: DirectSound,
-    kernel: CurveKernel,
-    /// The power of the separate distance curve of the grid tracker's refinement, if it has one.
-    refine: Option<DistancePower>,
-    reliability: Reliability,
-    quality: FrameQuality,
-    calibration: CapsuleCalibration,
-    /// Analysis rate, Hz.
-    fs: f32,
+    /// Number of usable peaks, at the start of the caller's buffer.
+    pub num_peaks: usize,
 }
 
 /// The similarity method's per-frame stage and its state (peaks, curves, the direct-sound onset
 /// history, the self-calibration).
 pub struct SimilarityFrame {
-    settings: Settings,
+    /// Analysis rate, Hz.
+    fs: f32,
+    /// The power of the separate distance curve of the grid tracker's refinement, if it has one.
+    refine: Option<DistancePower>,
     picker: PeakPicker,
     curves: CurveBuilder,
     /// Per-azimuth constants of the last reference row used by the similarity curve.
@@ -68,9 +57,6 @@ pub struct SimilarityFrame {
     bin_rows: [u16; NUM_BINS],
     omni_power: [f32; NUM_BINS],
     peaks: Peaks,
-    /// The usable peaks of the frame: features, table rows and weights.
-    used: [PeakFeature; MAX_PEAKS],
-    n_used: usize,
     curve: [f32; MAX_AZIMUTHS],
     /// The last frame's negated mean distance curve −Σ w·d^p / Σ w
     /// ([`crate::refine_curve::RefineCurve`]), when the grid tracker refines its estimate with one.
@@ -90,29 +76,19 @@ impl Default for SimilarityFrame {
 }
 
 impl SimilarityFrame {
-    /// An unconfigured stage with zeroed state (the thesis settings at 12 kHz without noisy
-    /// references): a constant, for a `static`. Configure it with [`SimilarityFrame::configure`].
+    /// An unconfigured stage with zeroed state (12 kHz, one peak, no noisy references): a
+    /// constant, for a `static`. Configure it with [`SimilarityFrame::configure`].
     #[must_use]
     pub const fn new() -> Self {
-        let c = LocatorConfig::thesis();
         Self {
-            settings: Settings {
-                direct_sound: c.direct_sound,
-                kernel: c.kernel,
-                refine: None,
-                reliability: c.reliability,
-                quality: c.quality,
-                calibration: c.capsule_calibration,
-                fs: 12_000.0,
-            },
+            fs: 12_000.0,
+            refine: None,
             picker: PeakPicker::IDLE,
             curves: CurveBuilder::IDLE,
             row_cache: RowCache::new(),
             bin_rows: [0; NUM_BINS],
             omni_power: [0.0; NUM_BINS],
             peaks: Peaks::new(),
-            used: [PeakFeature::NONE; MAX_PEAKS],
-            n_used: 0,
             curve: [0.0; MAX_AZIMUTHS],
             distance: [0.0; MAX_AZIMUTHS],
             onset: OnsetState::new(),
@@ -126,9 +102,10 @@ impl SimilarityFrame {
         }
     }
 
-    /// Applies the settings of `config` for `table` at analysis rate `fs` Hz (validated by
-    /// [`LocatorConfig::validate`]); on error (the SNR sets of the noisy references) nothing is
-    /// changed. Leaves the state alone.
+    /// Builds what the stage derives from `config` (validated by [`LocatorConfig::validate`]) for
+    /// `table` at analysis rate `fs` Hz; on error (the SNR sets of the noisy references) nothing is
+    /// changed. Leaves the state alone. [`SimilarityFrame::process`] reads the rest of its settings
+    /// from the same `config`.
     pub fn configure(
         &mut self,
         config: &LocatorConfig,
@@ -140,15 +117,8 @@ impl SimilarityFrame {
         for (k, row) in self.bin_rows.iter_mut().enumerate() {
             *row = table.freq_index(crate::spectrum::bin_frequency(k, fs)) as u16;
         }
-        self.settings = Settings {
-            direct_sound: config.direct_sound,
-            kernel: config.kernel,
-            refine: refine_distance_power(config.kernel, &config.tracking),
-            reliability: config.reliability,
-            quality: config.quality,
-            calibration: config.capsule_calibration,
-            fs,
-        };
+        self.fs = fs;
+        self.refine = refine_distance_power(config.kernel, &config.tracking);
         self.picker = picker;
         self.curves = curves;
         self.row_cache.clear();
@@ -159,22 +129,18 @@ impl SimilarityFrame {
     pub fn reset(&mut self) {
         self.omni_power.fill(0.0);
         self.peaks = Peaks::new();
-        self.n_used = 0;
         self.curve.fill(0.0);
         self.distance.fill(0.0);
         self.onset = OnsetState::new();
         self.diagnostics = FrameDiagnostics::default();
     }
 
-    /// Restarts the self-calibration from its start estimate ([`SimilarityFrame::set_capsule_start`]).
-    pub fn reset_calibration(&mut self) {
-        let fs = self.settings.fs;
-        self.capsules = CapsuleCalibrationState::new(
-            self.settings.calibration,
-            fs,
-            fs / HOP as f32,
-            &self.capsule_start,
-        );
+    /// Restarts the self-calibration with `settings` from its start estimate
+    /// ([`SimilarityFrame::set_capsule_start`]).
+    pub fn reset_calibration(&mut self, settings: CapsuleCalibration) {
+        let fs = self.fs;
+        self.capsules =
+            CapsuleCalibrationState::new(settings, fs, fs / HOP as f32, &self.capsule_start);
     }
 
     /// Sets the estimate the self-calibration starts from and applies it now.
@@ -183,46 +149,50 @@ impl SimilarityFrame {
         self.capsules.restore(start);
     }
 
-    /// Runs the stage on `frame`: `gate` scales b, `clean` says whether the frame may teach the
+    /// Runs the stage with the settings of `c` on `frame`: `gate` scales b, `clean` says whether the frame may teach the
     /// self-calibration, `talker` is the tracked azimuth so far (`None` before the first reliable
-    /// frame). Sets [`Flags::NO_PEAKS`] when no peak is usable.
+    /// frame). The usable peaks (features, table rows, weights) go to the start of `used` (the
+    /// caller's per-frame scratch, also the multi-talker tracks' input). Sets [`Flags::NO_PEAKS`]
+    /// when no peak is usable.
     #[allow(clippy::too_many_arguments)]
     pub fn process(
         &mut self,
+        c: &LocatorConfig,
         frame: &[[f32; FRAME_LEN]; CHANNELS],
         spectra: &mut FrameSpectra,
         table: &ReferenceTable<'_>,
+        used: &mut [PeakFeature; MAX_PEAKS],
         gate: f32,
         clean: bool,
         talker: Option<f32>,
         flags: &mut Flags,
     ) -> FrameResult {
         spectra.transform_omni_fold_cardioids(frame);
-        self.pick_peaks(spectra, clean);
-        let weight_sum = self.peak_features(spectra);
+        let calibrating = c.capsule_calibration.enabled;
+        self.pick_peaks(spectra, clean, calibrating);
+        let (n_used, weight_sum) = self.peak_features(spectra, used, c.direct_sound, calibrating);
         let q = table.num_azimuths();
-        let s = self.settings;
         self.curves.frame_curve(
             &mut self.row_cache,
             table,
-            &self.used[..self.n_used],
-            s.kernel,
-            s.refine,
+            &used[..n_used],
+            c.kernel,
+            self.refine,
             &mut self.curve[..q],
             &mut self.distance[..q],
         );
-        if s.direct_sound.onset_exponent > 0.0 {
+        let ds = c.direct_sound;
+        if ds.onset_exponent > 0.0 {
             let (lo, hi) = self.picker.band();
-            self.onset
-                .update(s.direct_sound.onset_pole, &self.omni_power, lo, hi);
+            self.onset.update(ds.onset_pole, &self.omni_power, lo, hi);
         }
-        let (b, curve_reliability) = self.reliability(q, gate, weight_sum, &frame[0], flags);
-        if s.calibration.enabled {
+        let (b, curve_reliability) =
+            self.reliability(c, q, gate, n_used, weight_sum, &frame[0], flags);
+        if calibrating {
             // A background whose curve points somewhere is directional: not learned from.
-            let directional = curve_reliability > s.calibration.directional_reliability;
+            let directional = curve_reliability > c.capsule_calibration.directional_reliability;
             self.capsules.end_frame(talker, directional);
         }
-        let n_used = self.n_used;
         self.diagnostics.num_peaks = n_used;
         self.diagnostics.mean_peak_weight = if n_used > 0 {
             weight_sum / n_used as f32
@@ -234,12 +204,16 @@ impl SimilarityFrame {
         } else {
             None
         };
-        FrameResult { b, raw }
+        FrameResult {
+            b,
+            raw,
+            num_peaks: n_used,
+        }
     }
 
     /// The omni power in the bins the picker reads and the frame's peaks; starts the
     /// self-calibration's frame.
-    fn pick_peaks(&mut self, spectra: &FrameSpectra, clean: bool) {
+    fn pick_peaks(&mut self, spectra: &FrameSpectra, clean: bool, calibrating: bool) {
         // Only the bins the picker reads (every later use is at a picked bin); the rest stay 0.
         let bins = self.picker.reads();
         for (p, c) in self.omni_power[bins.clone()]
@@ -249,16 +223,22 @@ impl SimilarityFrame {
             *p = power(*c);
         }
         self.picker.process(&self.omni_power, &mut self.peaks);
-        if self.settings.calibration.enabled {
+        if calibrating {
             let (lo, hi) = self.picker.band();
             self.capsules.begin_frame(&self.omni_power, lo, hi, clean);
         }
     }
 
-    /// The features, table rows and weights of the usable peaks; returns the sum of their weights.
-    fn peak_features(&mut self, spectra: &FrameSpectra) -> f32 {
-        let ds = self.settings.direct_sound;
-        let calibrating = self.settings.calibration.enabled;
+    /// The features, table rows and weights (direct-sound weighting `ds`) of the usable peaks into
+    /// `used`, the cardioids corrected when `calibrating`; returns their number and the sum of
+    /// their weights.
+    fn peak_features(
+        &mut self,
+        spectra: &FrameSpectra,
+        used: &mut [PeakFeature; MAX_PEAKS],
+        ds: DirectSound,
+        calibrating: bool,
+    ) -> (usize, f32) {
         let omni = spectra.omni();
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
@@ -295,34 +275,35 @@ impl SimilarityFrame {
                 continue;
             }
             let fi = self.bin_rows[k] as usize;
-            let Some(slot) = self.used.get_mut(n_used) else {
+            let Some(slot) = used.get_mut(n_used) else {
                 break;
             };
             *slot = PeakFeature { fi, y, weight: w };
             weight_sum += w;
             n_used += 1;
         }
-        self.n_used = n_used;
-        weight_sum
+        (n_used, weight_sum)
     }
 
     /// Normalises the frame's curve and rates it: returns (b, the curve's own reliability before
     /// any gate). Without usable peaks the curves are zero, b is 0 and [`Flags::NO_PEAKS`] is set.
+    #[allow(clippy::too_many_arguments)]
     fn reliability(
         &mut self,
+        c: &LocatorConfig,
         q: usize,
         gate: f32,
+        n_used: usize,
         weight_sum: f32,
         omni: &[f32; FRAME_LEN],
         flags: &mut Flags,
     ) -> (f32, f32) {
-        let s = &self.settings;
         let curve = &mut self.curve[..q];
         let distance = &mut self.distance[..q];
         let mut b = gate;
         let variance;
         let mut curve_reliability = 0.0;
-        if self.n_used == 0 || !(weight_sum > 0.0) {
+        if n_used == 0 || !(weight_sum > 0.0) {
             flags.insert(Flags::NO_PEAKS);
             curve.fill(0.0);
             distance.fill(0.0);
@@ -330,18 +311,18 @@ impl SimilarityFrame {
             variance = 0.0;
         } else {
             let sum =
-                normalise_frame_curve(s.kernel, s.refine.is_some(), weight_sum, curve, distance);
+                normalise_frame_curve(c.kernel, self.refine.is_some(), weight_sum, curve, distance);
             variance = curve_variance_with_sum(curve, sum);
-            curve_reliability = s.reliability.coefficient(variance);
+            curve_reliability = c.reliability.coefficient(variance);
             b *= curve_reliability;
             // Thesis option: alternative frame quality measures / binary b (frame_quality.rs).
-            if !s.quality.is_default() {
+            if !c.quality.is_default() {
                 b = gate
-                    * s.quality.coefficient(
-                        &s.reliability,
+                    * c.quality.coefficient(
+                        &c.reliability,
                         variance,
                         omni,
-                        s.fs,
+                        self.fs,
                         &self.omni_power,
                         self.peaks.bins(),
                     );
@@ -361,17 +342,11 @@ impl SimilarityFrame {
     /// curve when there is one, else the similarity curve (first `q` azimuths).
     #[must_use]
     pub fn refine_curve(&self, q: usize) -> &[f32] {
-        if self.settings.refine.is_some() {
+        if self.refine.is_some() {
             &self.distance[..q]
         } else {
             &self.curve[..q]
         }
-    }
-
-    /// The usable peaks of the last frame.
-    #[must_use]
-    pub fn used_peaks(&self) -> &[PeakFeature] {
-        &self.used[..self.n_used]
     }
 
     /// The picked bins of the last frame.
@@ -413,7 +388,7 @@ impl SimilarityFrame {
     /// The self-calibration's confidence in [0, 1] (0 when it is off).
     #[must_use]
     pub fn capsule_confidence(&self) -> f32 {
-        if self.settings.calibration.enabled {
+        if self.capsules.settings().enabled {
             self.capsules.confidence()
         } else {
             0.0
