@@ -10,15 +10,14 @@ use crate::features::FeatureKind;
 use crate::frame_onset::FrameOnset;
 use crate::frame_quality::FrameQuality;
 use crate::grid_tracker::GridTracker;
-use crate::input_guard::InputGuard;
 use crate::multi_track::MultiTrack;
 use crate::noise_floor::NoiseGate;
-use crate::noisy_reference::{NoiseMixing, NoisyReferences};
-use crate::peak_picker::PeakPicker;
-use crate::refine_curve::{DistancePower, RefineCurve};
+use crate::noisy_reference::NoiseMixing;
+use crate::reference_table::ReferenceTable;
+use crate::refine_curve::RefineCurve;
 use crate::reliability::Reliability;
-use crate::similarity::{CurveBuilder, SimilarityMeasure};
-use crate::{FRAME_LEN, NUM_BINS};
+use crate::similarity::SimilarityMeasure;
+use crate::MAX_PEAKS;
 
 /// Which localization principle runs (appendix A `se.principle`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,59 +194,98 @@ impl LocatorConfig {
         }
     }
 
-    /// The power of the distance curve whose running mean places the grid tracker's estimate
-    /// between grid points (`None`: the similarity curve does, or there is no such refinement).
-    /// With a distance [`CurveKernel`] the similarity curve already is a distance curve, so it
-    /// places the estimate, and this is `None`.
-    #[must_use]
-    pub fn refine_distance_power(&self) -> Option<DistancePower> {
-        if self.kernel.distance().is_some() {
-            return None;
-        }
-        match self.tracking {
-            Tracking::Grid(t) if t.refine_gain > 0.0 => t.refine_curve.power(),
-            _ => None,
-        }
+    /// Checks the values for analysis rate `fs` Hz and reference `table`: the error names the
+    /// first setting out of range ([`crate::Locator::new`] runs it; the noisy references' SNR sets
+    /// are checked where they are built).
+    pub fn validate(&self, fs: f32, table: &ReferenceTable<'_>) -> Result<(), Error> {
+        self.validate_analysis(fs, table)?;
+        self.validate_stages(table)
     }
 
-    /// The peak picker of this configuration at analysis rate `fs` Hz (band edges rounded to bins,
-    /// kept inside 1…Nyquist − 1).
-    #[must_use]
-    pub fn peak_picker(&self, fs: f32) -> PeakPicker {
-        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
-        PeakPicker {
-            lo_bin: bin_of(self.band_lo_hz).max(1),
-            hi_bin: bin_of(self.band_hi_hz).min(NUM_BINS - 2),
-            num_peaks: self.num_peaks,
-            min_power: self.peak_threshold * self.peak_threshold,
-            fill: self.fill_peaks,
+    /// The band, peaks, reliability, poles, direct-sound weights, thresholds and features.
+    fn validate_analysis(&self, fs: f32, table: &ReferenceTable<'_>) -> Result<(), Error> {
+        let c = self;
+        if !(c.band_lo_hz >= 0.0 && c.band_hi_hz > c.band_lo_hz && c.band_hi_hz <= fs / 2.0) {
+            return invalid("band: need 0 ≤ lo < hi ≤ analysis Nyquist");
         }
+        if c.num_peaks == 0 || c.num_peaks > MAX_PEAKS {
+            return invalid("num_peaks: 1..=32");
+        }
+        if !c.reliability.is_valid() {
+            return invalid("reliability: need K ≥ 0 and V_max > V_floor ≥ 0");
+        }
+        if !(0.0..1.0).contains(&c.tdiv_pole) || !(0.0..1.0).contains(&c.fdiv_pole) {
+            return invalid("poles: need 0 ≤ a < 1");
+        }
+        if !c.direct_sound.is_valid() {
+            return invalid("direct_sound: exponents ≥ 0, 0 ≤ pole < 1, 0 ≤ floor ≤ 1");
+        }
+        if !(c.peak_threshold >= 0.0) || !(c.silence_power >= 0.0) || !(c.clip_level > 0.0) {
+            return invalid("thresholds must be ≥ 0");
+        }
+        if !table.serves(c.features) {
+            return invalid(
+                "the reference table has no rows for this feature kind (CMA_TABLE_FEATURES)",
+            );
+        }
+        if c.features == FeatureKind::Active && c.noise_mixing == NoiseMixing::Power {
+            return invalid(
+                "active features mix noise linearly: use magnitude (or no) noise mixing",
+            );
+        }
+        Ok(())
     }
 
-    /// The similarity-curve builder of this configuration, or the error of its SNR sets.
-    pub fn curve_builder(&self) -> Result<CurveBuilder, Error> {
-        Ok(CurveBuilder {
-            measure: self.measure,
-            noisy: NoisyReferences::new(
-                self.noise_mixing,
-                self.snr_from_db,
-                self.snr_to_db,
-                self.snr_step_db,
-            )?,
-            mean_free: self.mean_free,
-            features: self.features,
-        })
-    }
-
-    /// The input guard of this configuration for a decimation `factor`: bad samples flag the frames
-    /// that contain them (a frame plus the decimator's transient, in input samples).
-    #[must_use]
-    pub fn input_guard(&self, factor: u32) -> InputGuard {
-        InputGuard {
-            clip_level: self.clip_level,
-            hold_samples: (FRAME_LEN as u32 + 64) * factor,
+    /// The settings of the gates, the self-calibration, the kernel, the tracking and the thesis
+    /// options.
+    fn validate_stages(&self, table: &ReferenceTable<'_>) -> Result<(), Error> {
+        let c = self;
+        if c.noise_gate.enabled && !c.noise_gate.is_valid() {
+            return invalid("noise gate: need a finite rise ≥ 0 and open < full");
         }
+        if c.frame_onset.enabled && !c.frame_onset.is_valid() {
+            return invalid("frame onset: history 1…8 frames, finite low < high, floor in [0, 1]");
+        }
+        if c.capsule_calibration.enabled && !table.is_ideal_model() {
+            return invalid(
+                "self-calibration maps the capsules to the ideal model: switch it off with a measured table",
+            );
+        }
+        if c.capsule_calibration.enabled && !c.capsule_calibration.is_valid() {
+            return invalid(
+                "self-calibration: finite background dB ≥ 0, memory ≥ 1 frame, prior ≥ 0, anisotropy > 0",
+            );
+        }
+        if !c.kernel.is_valid() {
+            return invalid("kernel: need a finite scale > 0");
+        }
+        if let Tracking::Grid(t) = c.tracking {
+            if !t.is_valid() {
+                return invalid(
+                    "grid tracker: values finite; probabilities, poles, floors, refine gain in [0, 1]; the rest ≥ 0",
+                );
+            }
+        }
+        if c.multi_track.enabled && !cfg!(feature = "multi-talker") {
+            return invalid(
+                "multi-talker tracks: cma-core was built without its `multi-talker` feature",
+            );
+        }
+        if c.multi_track.enabled && (c.method != Method::Similarity || !c.multi_track.is_valid()) {
+            return invalid(
+                "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains in [0, 1], 0 ≤ off ≤ on ≤ 1",
+            );
+        }
+        if !c.quality.is_valid() {
+            return invalid("quality: scales must be > 0 and finite");
+        }
+        Ok(())
     }
+}
+
+/// The error of an invalid setting.
+fn invalid(what: &'static str) -> Result<(), Error> {
+    Err(Error::InvalidConfig(what))
 }
 
 impl Default for LocatorConfig {

@@ -52,13 +52,19 @@
 //!    or [`grid_tracker`] — the product's Bayesian tracker on the curve (no lag, fast jumps);
 //! 10. [`interpolation`] — wrapped argmax with parabolic interpolation (eq. 4.23–4.29).
 //!
-//! [`locator::Locator`] ties them together: feed it blocks of interleaved 4-channel samples (as a DMA
+//! Per analysis frame, [`frame_level`] measures the frame's power and gate, [`similarity_frame`] runs
+//! steps 3–8 and the reliability of step 9, and [`curve_tracker`] the tracking of steps 9–10.
+//! [`locator::Locator`] composes the stages: feed it blocks of interleaved 4-channel samples (as a DMA
 //! handler receives them) and it calls back once per analysis frame with an [`estimate::Estimate`].
-//! The intensity-vector baselines [`tdiv`] and [`fdiv`] sit behind the same interface.
+//! The intensity-vector baselines [`tdiv`] and [`fdiv`] sit behind the same interface ([`intensity`]).
 //!
 //! The thesis's further options: [`beamformer`] (self-steered first-order beam, §3.3),
 //! [`frame_quality`] (§5.1.6 quality measures), [`combination`] (rule 2, eq. 5.13; FDIV spread),
-//! [`cartesian_filter`] (eq. 5.30).
+//! [`cartesian_filter`] (eq. 5.30); [`alternative_result`] applies rule 2 and eq. 5.30 to the
+//! similarity method's result.
+//!
+//! [`config::LocatorConfig`] holds the settings of all stages as plain data; each stage builds
+//! itself from them (e.g. [`peak_picker::PeakPicker::from_config`]).
 //!
 //! "Frame" has two meanings in this crate, as in the literature: a *sample frame* is one instant across the
 //! four channels (`[f32; 4]`), an *analysis frame* is a block of [`FRAME_LEN`] samples per channel.
@@ -84,17 +90,21 @@ pub mod tracking;
 // Every stage module also at the crate root, where the rest of the crate and its users name it.
 #[cfg(target_arch = "x86_64")]
 pub(crate) use analysis::fft_x86;
-pub use analysis::{capsule_calibration, direct_sound, features, peak_picker, spectrum};
+pub use analysis::{
+    capsule_calibration, direct_sound, features, frame_level, frame_spectra, peak_picker, spectrum,
+};
 pub use arith::{angle, fast_exp, fast_math};
-pub use baselines::{bformat, fdiv, tdiv};
+pub use baselines::{bformat, fdiv, intensity, tdiv};
 pub use formats::{capsule_estimate_file, table_file, wire};
 pub use frontend::{block_decimator, decimator, framer, front_end, input_guard};
 pub use localization::{
     curve_kernel, embedded_table, frame_onset, interpolation, noise_floor, noisy_reference,
-    power_ramp, reference_table, reliability, similarity, tables,
+    power_ramp, reference_table, reliability, similarity, similarity_frame, tables,
 };
-pub use thesis_options::{beamformer, cartesian_filter, combination, distance, frame_quality};
-pub use tracking::{grid_tracker, multi_track, refine_curve, running_curve};
+pub use thesis_options::{
+    alternative_result, beamformer, cartesian_filter, combination, distance, frame_quality,
+};
+pub use tracking::{curve_tracker, grid_tracker, multi_track, refine_curve, running_curve};
 
 pub use config::{LocatorConfig, Method};
 pub use error::Error;

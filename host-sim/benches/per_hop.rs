@@ -5,6 +5,7 @@
 
 use cma_core::decimator::Decimator;
 use cma_core::front_end::FrontEnd;
+use cma_core::input_guard::InputGuard;
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use host_sim::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
@@ -62,7 +63,7 @@ fn front_end_per_hop(c: &mut Criterion) {
     let hop = 1024;
     let mut g = c.benchmark_group("front_end_per_hop_48k");
     g.throughput(Throughput::Elements(hop as u64));
-    let guard = LocatorConfig::default().input_guard(4);
+    let guard = InputGuard::for_decimation(LocatorConfig::default().clip_level, 4);
     let mut fe = FrontEnd::new(Decimator::for_rate(48_000).expect("supported"), guard);
     let mut pos = 0;
     g.bench_function("default", |b| {

@@ -8,8 +8,10 @@ use crate::scene::{hop_samples, Scene, HOP_SAMPLES, RATE_HZ};
 use crate::FIRMWARE_RATE_HZ;
 use cma_core::decimator::Decimator;
 use cma_core::front_end::FrontEnd;
+use cma_core::input_guard::InputGuard;
 use cma_core::interpolation::argmax_parabolic;
 use cma_core::peak_picker::{PeakPicker, Peaks};
+use cma_core::refine_curve::refine_distance_power;
 use cma_core::reliability::{curve_variance_with_sum, CurveFilter};
 use cma_core::similarity::{normalise_frame_curve, CurveBuilder, PeakFeature, RowCache};
 use cma_core::spectrum::{dft_bins3, fold_windowed, power, windowed_spectrum};
@@ -117,10 +119,10 @@ impl Bench {
             distance: [0.0; MAX_AZIMUTHS],
             curve_sum: 0.0,
             filter: CurveFilter::new(),
-            front: FrontEnd::new(dec, c.input_guard(dec.factor())),
-            picker: c.peak_picker(fs),
+            front: FrontEnd::new(dec, InputGuard::for_decimation(c.clip_level, dec.factor())),
+            picker: PeakPicker::from_config(&c, fs),
             row_cache: RowCache::new(),
-            curves: c.curve_builder().expect("default SNR sets are valid"),
+            curves: CurveBuilder::from_config(&c).expect("default SNR sets are valid"),
             table: ReferenceTable::ideal_5deg(),
         });
         let mut scene = Scene::at_rate(FIRMWARE_RATE_HZ);
@@ -210,7 +212,7 @@ impl Bench {
         }
         // The default kernel and, if the default has one, the refinement curve in the same pass.
         let c = LocatorConfig::default();
-        let refine = c.refine_distance_power();
+        let refine = refine_distance_power(c.kernel, &c.tracking);
         let distance = &mut self.distance[..q];
         self.curves.frame_curve(
             &mut self.row_cache,

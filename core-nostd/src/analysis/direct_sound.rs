@@ -37,6 +37,15 @@ impl DirectSound {
         onset_floor: 0.1,
     };
 
+    /// `true` for exponents ≥ 0, 0 ≤ pole < 1 and 0 ≤ floor ≤ 1.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.directness_exponent >= 0.0
+            && self.onset_exponent >= 0.0
+            && (0.0..1.0).contains(&self.onset_pole)
+            && (0.0..=1.0).contains(&self.onset_floor)
+    }
+
     /// `true` when any weight is active.
     #[must_use]
     pub fn enabled(&self) -> bool {

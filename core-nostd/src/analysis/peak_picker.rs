@@ -1,7 +1,8 @@
 //! Peak picking (thesis §5.1.2): the N_p strongest local maxima of the omni power spectrum inside a
 //! band, filled up with the strongest remaining in-band bins when there are fewer peaks than N_p.
 
-use crate::MAX_PEAKS;
+use crate::config::LocatorConfig;
+use crate::{FRAME_LEN, MAX_PEAKS, NUM_BINS};
 
 /// Peak picker configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,6 +83,29 @@ impl Peaks {
 }
 
 impl PeakPicker {
+    /// A placeholder of an unconfigured localizer: one peak anywhere in the spectrum.
+    pub const IDLE: PeakPicker = PeakPicker {
+        lo_bin: 1,
+        hi_bin: NUM_BINS - 2,
+        num_peaks: 1,
+        min_power: 0.0,
+        fill: false,
+    };
+
+    /// The peak picker of `config` at analysis rate `fs` Hz (band edges rounded to bins, kept
+    /// inside 1…Nyquist − 1).
+    #[must_use]
+    pub fn from_config(config: &LocatorConfig, fs: f32) -> Self {
+        let bin_of = |f: f32| libm::roundf(f * FRAME_LEN as f32 / fs) as usize;
+        PeakPicker {
+            lo_bin: bin_of(config.band_lo_hz).max(1),
+            hi_bin: bin_of(config.band_hi_hz).min(NUM_BINS - 2),
+            num_peaks: config.num_peaks,
+            min_power: config.peak_threshold * config.peak_threshold,
+            fill: config.fill_peaks,
+        }
+    }
+
     /// `true` when bin `k` of `power` is a local maximum (slope sign changes from + to −).
     #[inline]
     fn is_peak(power: &[f32], k: usize) -> bool {

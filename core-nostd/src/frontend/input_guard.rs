@@ -3,7 +3,7 @@
 //! sees a non-finite value.
 
 use crate::estimate::Flags;
-use crate::CHANNELS;
+use crate::{CHANNELS, FRAME_LEN};
 
 /// Thresholds of the guard.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +34,22 @@ impl InputGuardState {
 }
 
 impl InputGuard {
+    /// A placeholder of an unconfigured localizer: nothing counts as clipped, no hold.
+    pub const IDLE: InputGuard = InputGuard {
+        clip_level: 1.0,
+        hold_samples: 0,
+    };
+
+    /// The guard for clip level `clip_level` ahead of a decimation by `factor`: bad samples flag the
+    /// analysis frames that contain them (a frame plus the decimator's transient, in input samples).
+    #[must_use]
+    pub fn for_decimation(clip_level: f32, factor: u32) -> Self {
+        InputGuard {
+            clip_level,
+            hold_samples: (FRAME_LEN as u32 + 64) * factor,
+        }
+    }
+
     /// Cleans one sample frame in place and updates the countdowns.
     #[inline]
     pub fn process(&self, state: &mut InputGuardState, x: &mut [f32; CHANNELS]) {

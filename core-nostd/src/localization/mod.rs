@@ -1,4 +1,4 @@
-//! Localization: reference tables, noisy references, the similarity curve, its reliability and the interpolated argmax.
+//! Localization: reference tables, noisy references, the similarity curve (one frame of the similarity method: [`similarity_frame`]), its reliability and the interpolated argmax.
 
 pub mod curve_kernel;
 pub mod embedded_table;
@@ -10,4 +10,5 @@ pub mod power_ramp;
 pub mod reference_table;
 pub mod reliability;
 pub mod similarity;
+pub mod similarity_frame;
 pub mod tables;

@@ -23,6 +23,16 @@ pub struct Reliability {
 }
 
 impl Reliability {
+    /// `true` for K ≥ 0 and V_max > V_floor ≥ 0, K and V_max finite.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.speed >= 0.0
+            && self.v_max > self.v_floor
+            && self.v_floor >= 0.0
+            && self.speed.is_finite()
+            && self.v_max.is_finite()
+    }
+
     /// b = clip(K · ((V − V_0) / (V_max − V_0))^p, 0, 1); 0 for a non-finite V.
     #[must_use]
     pub fn coefficient(&self, variance: f32) -> f32 {

@@ -1,7 +1,9 @@
 //! Similarity between observed and reference features (thesis eq. 4.17–4.19) and the mean
 //! similarity curve over the picked peaks (eq. 5.9, 5.11, with the noisy references of eq. 5.20).
 
+use crate::config::LocatorConfig;
 use crate::curve_kernel::CurveKernel;
+use crate::error::Error;
 use crate::fast_math::{
     clamp_nonneg, pow_three_halves_nonneg2, sqrt_nonneg, sqrt_nonneg2, sqrtf, sqrtf2,
 };
@@ -131,6 +133,15 @@ pub struct PeakFeature {
     pub weight: f32,
 }
 
+impl PeakFeature {
+    /// An unused slot: row 0, zero features and weight.
+    pub const NONE: PeakFeature = PeakFeature {
+        fi: 0,
+        y: [0.0; 3],
+        weight: 0.0,
+    };
+}
+
 /// Where [`CurveBuilder::accumulate_peaks_with_distance`] adds the peaks' weighted distance powers
 /// Σ w·d^p (for [`crate::refine_curve::RefineCurve`] and [`crate::curve_kernel::CurveKernel`]) next
 /// to the similarity curve.
@@ -171,6 +182,29 @@ pub struct CurveBuilder {
 }
 
 impl CurveBuilder {
+    /// A placeholder of an unconfigured localizer: Euclidean magnitude features, clean references.
+    pub const IDLE: CurveBuilder = CurveBuilder {
+        measure: SimilarityMeasure::Euclidean,
+        noisy: NoisyReferences::off(),
+        mean_free: false,
+        features: FeatureKind::Magnitude,
+    };
+
+    /// The similarity-curve builder of `config`, or the error of its SNR sets.
+    pub fn from_config(config: &LocatorConfig) -> Result<Self, Error> {
+        Ok(CurveBuilder {
+            measure: config.measure,
+            noisy: NoisyReferences::new(
+                config.noise_mixing,
+                config.snr_from_db,
+                config.snr_to_db,
+                config.snr_step_db,
+            )?,
+            mean_free: config.mean_free,
+            features: config.features,
+        })
+    }
+
     /// Adds `weight · max_i Sim(y, Y_ref(q, i))` to `curve[q]` for every azimuth q of frequency row `fi`.
     ///
     /// Euclidean similarity with clean or magnitude-mixed references takes a fast path: all mixed

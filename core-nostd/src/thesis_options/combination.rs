@@ -8,10 +8,12 @@
 //! b = 1 when s ≤ s_max.
 
 use crate::bformat::{intensity, xy_complex};
+use crate::cartesian_filter::CartesianFilter;
 use crate::interpolation::argmax_parabolic;
 use crate::reference_table::ReferenceTable;
 use crate::similarity::CurveBuilder;
 use crate::spectrum::power;
+use crate::tdiv::IvEstimate;
 use crate::{CHANNELS, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
 use microfft::Complex32;
 
@@ -67,6 +69,26 @@ impl FdivSpread {
             }
         } else {
             (1.0 - std_deg / self.max_std_deg).clamp(0.0, 1.0)
+        }
+    }
+
+    /// FDIV with this quality measure on one frame: the circular mean over bins `lo..=hi` of the
+    /// frame's per-bin intensity azimuths ([`fdiv_bin_spread`] of `spectra`), filtered in Cartesian
+    /// form (eq. 5.30, state `filter`) with b from their spread.
+    pub fn frame(
+        &self,
+        filter: &mut CartesianFilter,
+        spectra: &[[Complex32; NUM_BINS]; CHANNELS],
+        lo: usize,
+        hi: usize,
+    ) -> IvEstimate {
+        let (mean, std) = fdiv_bin_spread(spectra, lo, hi);
+        let b = self.coefficient(std);
+        let az = filter.update(b, mean).unwrap_or(mean);
+        IvEstimate {
+            azimuth_deg: az,
+            azimuth_raw_deg: mean,
+            confidence: b,
         }
     }
 }

@@ -15,6 +15,9 @@
 //! is from the similarity curve; the distance curve only moves the estimate within
 //! [`crate::grid_tracker::GridTracker::refine_limit`] grid steps of the posterior's maximum.
 
+use crate::config::Tracking;
+use crate::curve_kernel::CurveKernel;
+
 /// The curve whose running mean places the estimate between grid points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -40,6 +43,21 @@ impl RefineCurve {
             RefineCurve::Distance1_5 => Some(DistancePower::ThreeHalves),
             RefineCurve::Distance2 => Some(DistancePower::Two),
         }
+    }
+}
+
+/// The power of the distance curve whose running mean places the grid tracker's estimate between
+/// grid points, for `kernel` and `tracking` (`None`: the similarity curve does, or there is no such
+/// refinement). With a distance [`CurveKernel`] the similarity curve already is a distance curve,
+/// so it places the estimate, and this is `None`.
+#[must_use]
+pub fn refine_distance_power(kernel: CurveKernel, tracking: &Tracking) -> Option<DistancePower> {
+    if kernel.distance().is_some() {
+        return None;
+    }
+    match tracking {
+        Tracking::Grid(t) if t.refine_gain > 0.0 => t.refine_curve.power(),
+        _ => None,
     }
 }
 
