@@ -93,13 +93,64 @@ impl<'t> Locator<'t> {
         table: ReferenceTable<'t>,
         input_rate: u32,
     ) -> Result<&'s mut Self, Error> {
-        let locator = slot.write(Self::empty(table));
+        let locator = Self::write_empty(slot, table);
         // The large state of `empty` (buffers, spectra, curves, trackers) is already the initial
         // state: only configure and set up the small state that depends on the configuration (no
         // large temporaries).
         locator.configure(config, table, input_rate)?;
         locator.reset_configured_state();
         Ok(locator)
+    }
+
+    /// Writes [`Locator::empty`] into `slot` one stage at a time. `slot.write(Self::empty(table))`
+    /// does the same in safe code, but the compiler builds the whole ≈ 37 KB value on the stack first
+    /// and copies it (a 56 KB stack frame at the firmware's boot, measured with `llvm-objdump`);
+    /// written field by field, most stages' constructors write into their place. Two would still go
+    /// through a temporary (12 KB of stack in all): the spectra (all zeros: as a constant they become
+    /// a fill) and the curve tracker (as a constant, a 2.6 KB copy from flash); the rest of the
+    /// frame is 2.5 KB.
+    #[allow(unsafe_code)]
+    fn write_empty<'s>(slot: &'s mut MaybeUninit<Self>, table: ReferenceTable<'t>) -> &'s mut Self {
+        use core::ptr::addr_of_mut;
+        // The fields written below are the fields of `empty`: this destructuring (no `..`) stops
+        // compiling when a field is added, until it is added here and below.
+        let Self {
+            config: _,
+            table: _,
+            offset2: _,
+            front: _,
+            level: _,
+            spectra: _,
+            noise_floor: _,
+            frame_onset: _,
+            similarity: _,
+            tracker: _,
+            alternative: _,
+            intensity: _,
+            multi: _,
+        };
+        let p = slot.as_mut_ptr();
+        // Note(unsafe): `p` points to memory valid for a `Self` (the slot); each field is written
+        // exactly once through a raw pointer to it (`addr_of_mut!`, no reference to uninitialised
+        // memory is made), and together the writes initialise every field of the value, as the
+        // destructuring above checks, so `assume_init_mut` is then sound.
+        unsafe {
+            addr_of_mut!((*p).config).write(LocatorConfig::thesis());
+            addr_of_mut!((*p).table).write(table);
+            addr_of_mut!((*p).offset2).write(0);
+            addr_of_mut!((*p).front)
+                .write(FrontEnd::new(Decimator::passthrough(), InputGuard::IDLE));
+            addr_of_mut!((*p).level).write(FrameLevel::new());
+            addr_of_mut!((*p).spectra).write(const { FrameSpectra::new() });
+            addr_of_mut!((*p).noise_floor).write(NoiseFloor::idle());
+            addr_of_mut!((*p).frame_onset).write(FrameOnsetState::idle());
+            addr_of_mut!((*p).similarity).write(SimilarityFrame::new());
+            addr_of_mut!((*p).tracker).write(const { CurveTracker::new() });
+            addr_of_mut!((*p).alternative).write(AlternativeResult::new());
+            addr_of_mut!((*p).intensity).write(IntensityVector::new());
+            addr_of_mut!((*p).multi).write(MultiTrackState::new());
+            slot.assume_init_mut()
+        }
     }
 
     /// An unconfigured localizer with zeroed state (the thesis configuration at 12 kHz without

@@ -47,9 +47,9 @@ pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz).
 pub const BLOCK_FRAMES: usize = 32;
-/// Sample frames held by the DMA ring (16 ms at 16 kHz): the longest the DSP task may lag behind
+/// Sample frames held by the DMA ring (8 ms at 16 kHz): the longest the DSP task may lag behind
 /// before an overrun.
-pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
+pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
 /// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
 /// resets the chip.
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;

@@ -45,7 +45,7 @@ pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block, as on the STM32F411CE board (`board.rs`).
 pub const BLOCK_FRAMES: usize = 32;
 /// Sample frames the emulated DMA ring holds, as on the STM32F411CE board (`board.rs`).
-pub const RING_FRAMES: usize = 8 * BLOCK_FRAMES;
+pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
 /// Watchdog timeout, µs, as on the STM32F411CE board.
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 

@@ -22,7 +22,7 @@ pub const STATE_ADDR: u32 = 0x2030_0010;
 
 /// Capture frame (from boot) at which the capture faults are injected (1.0 s at 16 kHz).
 pub const FAULT_AT_FRAME: u64 = 16_000;
-/// How long the DSP task stalls in [`Fault::CaptureStall`], µs (the ring holds 16 ms).
+/// How long the DSP task stalls in [`Fault::CaptureStall`], µs (the ring holds 8 ms).
 pub const CAPTURE_STALL_US: u64 = 20_000;
 /// When the UART transmitter is held in [`Fault::UartStall`], µs after boot.
 pub const UART_STALL_FROM_US: u64 = 1_000_000;

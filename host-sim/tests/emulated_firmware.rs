@@ -39,6 +39,8 @@ const QEMU_TIMEOUT_S: &str = "300";
 const MONITOR_TIMEOUT_S: &str = "400";
 /// The monitor exits after this long without a byte (QEMU has ended by then).
 const MONITOR_IDLE_S: &str = "8";
+/// Largest stack high-water mark of the application on the emulated board that the test accepts.
+const STACK_LIMIT_BYTES: u32 = 8 * 1024;
 
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -436,6 +438,19 @@ fn emulated_firmware_matches_the_host_and_survives_faults() {
         run(Fault::CaptureStall),
         run(Fault::UartStall),
         run(Fault::DspHang),
+    );
+
+    // The application's stack (painted at boot, before the localizer is built, and scanned at the
+    // end): far below what the boards' RAM budget leaves for it (48 KB minus about 44 KB of
+    // statics). Building the ≈ 37 KB localizer through a temporary once took 31–56 KB here.
+    let stack: u32 = one_number(clean, "stack high-water mark ")
+        .split_whitespace()
+        .next()
+        .and_then(|n| n.parse().ok())
+        .expect("mps2: stack high-water mark N bytes");
+    assert!(
+        stack <= STACK_LIMIT_BYTES,
+        "stack high-water mark {stack} B > {STACK_LIMIT_BYTES} B"
     );
 
     // The references: the WAV as captured (whole blocks), without the frames lost in the gap, and
