@@ -107,8 +107,7 @@ impl<'t> Locator<'t> {
     /// and copies it (a 56 KB stack frame at the firmware's boot, measured with `llvm-objdump`);
     /// written field by field, most stages' constructors write into their place. Two would still go
     /// through a temporary (12 KB of stack in all): the spectra (all zeros: as a constant they become
-    /// a fill) and the curve tracker (as a constant, a 2.6 KB copy from flash); the rest of the
-    /// frame is 2.5 KB.
+    /// a fill) and the curve tracker (as a constant, a 2.6 KB copy from flash).
     #[allow(unsafe_code)]
     fn write_empty<'s>(slot: &'s mut MaybeUninit<Self>, table: ReferenceTable<'t>) -> &'s mut Self {
         use core::ptr::addr_of_mut;

@@ -81,9 +81,9 @@ pub async fn run(spawner: Spawner) {
     spawner.spawn(dsp_task(board.audio, locator, board.watchdog).unwrap());
 }
 
-/// Builds the localizer in [`LOCATOR`]. Not inlined, so that its stack frame (≈ 3 KB of small
-/// temporaries of the in-place construction) is released before the tasks run and does not add to the
-/// main task's frame.
+/// Builds the localizer in [`LOCATOR`]. Not inlined, so that its stack frame (the small temporaries
+/// of the in-place construction: configuration copies, the curve builder) is released before the
+/// tasks run and does not add to the main task's frame.
 #[inline(never)]
 fn init_locator() -> &'static mut Locator<'static> {
     // The table embedded at build time: measured with `CMA_TABLE`, else the ideal model. A measured

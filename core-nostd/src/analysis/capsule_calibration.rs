@@ -533,12 +533,26 @@ impl CapsuleCalibrationState {
         start: &CapsuleEstimate,
     ) -> Self {
         let mut s = Self::idle();
-        s.settings = settings;
+        s.reset(settings, fs, frames_per_s, start);
+        s
+    }
+
+    /// Makes this state what [`CapsuleCalibrationState::new`] returns, in place (without a
+    /// temporary of the state's size on the stack).
+    pub fn reset(
+        &mut self,
+        settings: CapsuleCalibration,
+        fs: f32,
+        frames_per_s: f32,
+        start: &CapsuleEstimate,
+    ) {
+        *self = Self::idle();
+        self.settings = settings;
         let band_of = |k: usize| {
             let f = crate::spectrum::bin_frequency(k, fs);
             CAL_BAND_EDGES_HZ.iter().filter(|e| f >= **e).count()
         };
-        for (b, range) in s.band_bins.iter_mut().enumerate() {
+        for (b, range) in self.band_bins.iter_mut().enumerate() {
             let start = (0..NUM_BINS)
                 .position(|k| band_of(k) >= b)
                 .unwrap_or(NUM_BINS);
@@ -552,11 +566,10 @@ impl CapsuleCalibrationState {
             rise_db_per_s: FLOOR_RISE_DB_PER_S,
             ..NoiseGate::OFF
         };
-        s.fresh_floor = NoiseFloor::new(&gate, frames_per_s);
-        s.background_ratio = power_ratio_from_db(settings.background_db);
-        s.forget = 1.0 - 1.0 / settings.memory_frames;
-        s.restore(start);
-        s
+        self.fresh_floor = NoiseFloor::new(&gate, frames_per_s);
+        self.background_ratio = power_ratio_from_db(settings.background_db);
+        self.forget = 1.0 - 1.0 / settings.memory_frames;
+        self.restore(start);
     }
 
     /// Replaces the estimate with `start` (a saved one): the sums are set to what the model gives

@@ -139,8 +139,8 @@ impl SimilarityFrame {
     /// ([`SimilarityFrame::set_capsule_start`]).
     pub fn reset_calibration(&mut self, settings: CapsuleCalibration) {
         let fs = self.fs;
-        self.capsules =
-            CapsuleCalibrationState::new(settings, fs, fs / HOP as f32, &self.capsule_start);
+        self.capsules
+            .reset(settings, fs, fs / HOP as f32, &self.capsule_start);
     }
 
     /// Sets the estimate the self-calibration starts from and applies it now.
