@@ -114,6 +114,30 @@ pub fn read(dir: &Path) -> Result<Vec<Entry>> {
     Ok(out)
 }
 
+/// The path a manifest in `manifest`'s folder names `wav` by: relative to that folder when `wav`
+/// lies below it, else `wav` as given.
+#[must_use]
+pub fn scene_path<'a>(manifest: &Path, wav: &'a Path) -> &'a Path {
+    let dir = manifest.parent().unwrap_or(Path::new("."));
+    wav.strip_prefix(dir).unwrap_or(wav)
+}
+
+/// Appends the line `row` to the manifest file `manifest`, creating it with the line `header`
+/// first when it does not exist.
+pub fn append_row(manifest: &Path, header: &str, row: &str) -> Result<()> {
+    use std::io::Write;
+    let new = !manifest.exists();
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(manifest)
+        .map_err(|e| SimError::io(manifest, e))?;
+    if new {
+        writeln!(f, "{header}").map_err(|e| SimError::io(manifest, e))?;
+    }
+    writeln!(f, "{row}").map_err(|e| SimError::io(manifest, e))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -662,6 +662,12 @@ pub fn write_wav(
     write_wav_with_comment(path, rate, channels, samples, format, None)
 }
 
+/// Writes four-channel sample frames (omni, cardioid 0°, 120°, 240°) with [`write_wav`].
+pub fn write_frames(path: &Path, rate: u32, frames: &[[f32; 4]], format: OutFormat) -> Result<()> {
+    let samples: Vec<f32> = frames.iter().flatten().copied().collect();
+    write_wav(path, rate, 4, &samples, format)
+}
+
 /// [`write_wav`], with `comment` stored in a `LIST`/`INFO` chunk (`ICMT`) after the samples
 /// ([`crate::sweep::append_info_comment`]).
 pub fn write_wav_with_comment(

@@ -19,7 +19,7 @@
 use crate::error::{Result, SimError};
 use crate::scene::{self, Motion, RoomResponse, SceneSpec};
 use crate::signal::{pink_noise, Rng};
-use crate::wav_io::{read_mono, write_atomically, write_wav, OutFormat};
+use crate::wav_io::{read_mono, write_atomically, write_frames, OutFormat};
 use std::path::{Path, PathBuf};
 
 /// Header of a multi-talker manifest.
@@ -349,12 +349,7 @@ pub fn write(
     format: OutFormat,
     manifest: Option<(&Path, &str)>,
 ) -> Result<()> {
-    let samples: Vec<f32> = scene
-        .frames
-        .iter()
-        .flat_map(|f| f.iter().copied())
-        .collect();
-    write_wav(out, scene.rate, 4, &samples, format)?;
+    write_frames(out, scene.rate, &scene.frames, format)?;
     let duration = scene.frames.len() as f64 / f64::from(scene.rate);
     for (k, t) in scene.talkers.iter().enumerate() {
         let path = truth_path(out, k);
@@ -367,9 +362,6 @@ pub fn write(
         })?;
     }
     if let Some((manifest, set)) = manifest {
-        use std::io::Write;
-        let dir = manifest.parent().unwrap_or(Path::new("."));
-        let rel = out.strip_prefix(dir).unwrap_or(out);
         if manifest.exists() {
             let text = crate::text_file::read(manifest)?;
             if text.lines().next().map(str::trim) != Some(MANIFEST_HEADER) {
@@ -379,23 +371,12 @@ pub fn write(
                 )));
             }
         }
-        let new = !manifest.exists();
-        let mut f = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(manifest)
-            .map_err(|e| SimError::io(manifest, e))?;
-        if new {
-            writeln!(f, "{MANIFEST_HEADER}").map_err(|e| SimError::io(manifest, e))?;
-        }
-        writeln!(
-            f,
-            "{},{},{},\"host-sim scene --talkers\"",
-            rel.display(),
-            set,
+        let row = format!(
+            "{},{set},{},\"host-sim scene --talkers\"",
+            crate::manifest::scene_path(manifest, out).display(),
             scene.talkers.len()
-        )
-        .map_err(|e| SimError::io(manifest, e))?;
+        );
+        crate::manifest::append_row(manifest, MANIFEST_HEADER, &row)?;
     }
     Ok(())
 }

@@ -11,9 +11,9 @@ use crate::array_model::ArrayModel;
 use crate::error::{Result, SimError};
 use crate::ground_truth::{wrap180, Track};
 use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
-use crate::wav_io::{read_four_channels, read_mono, write_atomically, write_wav, OutFormat};
+use crate::wav_io::{read_four_channels, read_mono, write_atomically, write_frames, OutFormat};
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Where the talker is over time.
 #[derive(Debug, Clone, PartialEq)]
@@ -363,12 +363,7 @@ pub fn write_scene(
     format: OutFormat,
     manifest: Option<(&Path, &str)>,
 ) -> Result<()> {
-    let samples: Vec<f32> = scene
-        .frames
-        .iter()
-        .flat_map(|f| f.iter().copied())
-        .collect();
-    write_wav(out, scene.rate, 4, &samples, format)?;
+    write_frames(out, scene.rate, &scene.frames, format)?;
     let pos = out.with_extension("pos.csv");
     write_atomically(&pos, |tmp| {
         let mut s = String::from("t_s,azimuth_deg,elevation_deg,distance_m\n");
@@ -378,31 +373,12 @@ pub fn write_scene(
         std::fs::write(tmp, s).map_err(|e| SimError::io(tmp, e))
     })?;
     if let Some((manifest, set)) = manifest {
-        use std::io::Write;
-        let dir = manifest.parent().unwrap_or(Path::new("."));
-        let rel: PathBuf = out
-            .strip_prefix(dir)
-            .map(Path::to_path_buf)
-            .unwrap_or_else(|_| out.to_path_buf());
-        let new = !manifest.exists();
-        let mut f = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(manifest)
-            .map_err(|e| SimError::io(manifest, e))?;
-        if new {
-            writeln!(f, "file,set,score_from_s,score_to_s,note")
-                .map_err(|e| SimError::io(manifest, e))?;
-        }
-        writeln!(
-            f,
-            "{},{},{:.3},{:.3},\"host-sim scene\"",
-            rel.display(),
-            set,
-            scene.score_window().0,
-            scene.score_window().1
-        )
-        .map_err(|e| SimError::io(manifest, e))?;
+        let (from, to) = scene.score_window();
+        let row = format!(
+            "{},{set},{from:.3},{to:.3},\"host-sim scene\"",
+            crate::manifest::scene_path(manifest, out).display()
+        );
+        crate::manifest::append_row(manifest, "file,set,score_from_s,score_to_s,note", &row)?;
     }
     Ok(())
 }
