@@ -18,15 +18,14 @@
 //! It implements the board interface of [`cma_firmware::board_api`] for the application
 //! (`src/app.rs`); another board (e.g. the emulated one in `src/board_mps2.rs`, or an STM32F446 with
 //! one 4-channel TDM ADC on SAI) provides the same items: [`init`] returning an [`AudioIn`]
-//! ([`SampleSource`]), a [`FrameTx`] ([`FrameWriter`]) and a [`Watchdog`], and the constants
+//! ([`SampleSource`]), a [`FrameTx`] ([`FrameWriter`](cma_firmware::board_api::FrameWriter)) and a [`Watchdog`], and the constants
 //! [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
 
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
+use cma_firmware::board_api::{Overrun, SampleSource};
 use cma_firmware::i2s_align::{align, channel_matches, StreamPosition};
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
 use embassy_stm32::i2s::{self, I2S};
-use embassy_stm32::mode::Async;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
@@ -35,6 +34,11 @@ use static_cell::ConstStaticCell;
 
 /// Input sample rate, Hz (the ADCs' LRCK; nominal: the clock plan gives 15 997 Hz).
 pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
+
+#[path = "stm32_drivers.rs"]
+mod stm32_drivers;
+pub use stm32_drivers::{FrameTx, Watchdog};
+
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz).
@@ -281,31 +285,6 @@ impl AudioIn {
     }
 }
 
-/// The frame-stream UART (transmit only, DMA).
-pub struct FrameTx(UartTx<'static, Async>);
-
-impl FrameWriter for FrameTx {
-    async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
-        self.0.write(bytes).await.map_err(|e| {
-            defmt::warn!("USART1: {}", e);
-            WriteError
-        })
-    }
-}
-
-/// The independent watchdog.
-pub struct Watchdog(IndependentWatchdog<'static, peripherals::IWDG>);
-
-impl board_api::Watchdog for Watchdog {
-    fn unleash(&mut self) {
-        self.0.unleash();
-    }
-
-    fn pet(&mut self) {
-        self.0.pet();
-    }
-}
-
 /// The board's drivers, ready to be moved into tasks.
 pub struct Board {
     /// The four capsules.
@@ -368,7 +347,7 @@ pub fn init() -> Board {
             started: false,
             aligned: false,
         },
-        uart: FrameTx(uart),
+        uart: FrameTx::new(uart, "USART1"),
         watchdog,
     }
 }

@@ -25,14 +25,14 @@
 //!
 //! It implements the board interface of [`cma_firmware::board_api`] like `board.rs` (STM32F411CE,
 //! two I2S ADCs) and `board_mps2.rs` (QEMU): [`init`] returns an [`AudioIn`] ([`SampleSource`]),
-//! a [`FrameTx`] ([`FrameWriter`]) and a [`Watchdog`]; [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
+//! a [`FrameTx`] ([`FrameWriter`](cma_firmware::board_api::FrameWriter)) and a [`Watchdog`]; [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
 
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
+use cma_firmware::board_api::{Overrun, SampleSource};
 use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
 use embassy_stm32::i2c::{self, I2c};
-use embassy_stm32::mode::{Async, Blocking};
+use embassy_stm32::mode::Blocking;
 use embassy_stm32::sai::{self, Sai};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
@@ -43,6 +43,11 @@ use static_cell::ConstStaticCell;
 /// Input sample rate, Hz, as the core sees it (the frame sync runs at 15 997 Hz: see
 /// [`start_sai_clock`]).
 pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
+
+#[path = "stm32_drivers.rs"]
+mod stm32_drivers;
+pub use stm32_drivers::{FrameTx, Watchdog};
+
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz).
@@ -260,31 +265,6 @@ impl TdmReceiver for SaiRestart<'_> {
     }
 }
 
-/// The frame-stream UART (transmit only, DMA): USART2 on the ST-LINK virtual COM port.
-pub struct FrameTx(UartTx<'static, Async>);
-
-impl FrameWriter for FrameTx {
-    async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
-        self.0.write(bytes).await.map_err(|e| {
-            defmt::warn!("USART2: {}", e);
-            WriteError
-        })
-    }
-}
-
-/// The independent watchdog.
-pub struct Watchdog(IndependentWatchdog<'static, peripherals::IWDG>);
-
-impl board_api::Watchdog for Watchdog {
-    fn unleash(&mut self) {
-        self.0.unleash();
-    }
-
-    fn pet(&mut self) {
-        self.0.pet();
-    }
-}
-
 /// The board's drivers, ready to be moved into tasks.
 pub struct Board {
     /// The four capsules.
@@ -407,7 +387,7 @@ pub fn init() -> Board {
             sai,
             words: [0; BLOCK_WORDS],
         },
-        uart: FrameTx(uart),
+        uart: FrameTx::new(uart, "USART2"),
         watchdog,
     }
 }
