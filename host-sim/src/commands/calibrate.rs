@@ -507,10 +507,8 @@ mod tests {
     use super::*;
     use crate::wav_io::{write_wav, OutFormat};
 
-    /// A 0.5 s, 16 kHz sweep up to 7 kHz made by `host-sim sweep`, its anechoic recordings at 0°,
-    /// 120° and 240° made by `host-sim scene`, and their manifest `cal/list.csv` (with a header in
-    /// the other column order).
-    fn sweep_and_recordings(d: &Path) -> (PathBuf, PathBuf) {
+    /// `d/sweep.wav`: a 0.5 s, 16 kHz sweep up to 7 kHz made by `host-sim sweep`.
+    fn short_sweep(d: &Path) -> PathBuf {
         let sweep = d.join("sweep.wav");
         crate::run([
             "host-sim",
@@ -525,6 +523,14 @@ mod tests {
             "7000",
         ])
         .unwrap();
+        sweep
+    }
+
+    /// A 0.5 s, 16 kHz sweep up to 7 kHz made by `host-sim sweep`, its anechoic recordings at 0°,
+    /// 120° and 240° made by `host-sim scene`, and their manifest `cal/list.csv` (with a header in
+    /// the other column order).
+    fn sweep_and_recordings(d: &Path) -> (PathBuf, PathBuf) {
+        let sweep = short_sweep(d);
         let cal = d.join("cal");
         std::fs::create_dir(&cal).unwrap();
         let mut manifest = String::from("azimuth_deg,file\n");
@@ -797,20 +803,7 @@ mod tests {
     fn cli_errors_are_clear_and_write_nothing() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        let sweep = d.join("sweep.wav");
-        crate::run([
-            "host-sim",
-            "sweep",
-            "--out",
-            &s(&sweep),
-            "--seconds",
-            "0.5",
-            "--rate",
-            "16000",
-            "--f2",
-            "7000",
-        ])
-        .unwrap();
+        let sweep = short_sweep(d);
         // A 2-channel "recording".
         let two = d.join("two.wav");
         write_wav(&two, 16_000, 2, &vec![0.1; 2 * 16_000], OutFormat::Pcm16).unwrap();
