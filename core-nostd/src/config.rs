@@ -291,11 +291,12 @@ fn invalid(what: &'static str) -> Result<(), Error> {
 impl Default for LocatorConfig {
     /// The product configuration: the thesis method plus the measured improvements (README,
     /// "Accuracy"): onset weighting of peaks, a variance floor and a tighter scale for b, the
-    /// Bayesian grid tracker with velocity drift instead of the one-pole curve filter, the
-    /// noise-floor gate and the frame onset weighting of b, and active-ratio features.
+    /// Bayesian grid tracker with velocity drift instead of the one-pole curve filter, 16 peaks
+    /// instead of 10, the noise-floor gate and the frame onset weighting of b, and active-ratio features.
     fn default() -> Self {
         let mut c = Self::thesis();
         c.kernel = CurveKernel::DEFAULT;
+        c.num_peaks = 16;
         c.reliability.v_floor = 0.0004;
         c.reliability.v_max = 0.003;
         c.direct_sound.onset_exponent = 1.0;
