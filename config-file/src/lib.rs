@@ -428,7 +428,7 @@ mod tests {
     #[test]
     fn values_print_as_the_file_writes_them() {
         let d = Preset::Default.config();
-        assert_eq!(value_of(&d, "num_peaks").as_deref(), Some("10"));
+        assert_eq!(value_of(&d, "num_peaks").as_deref(), Some("16"));
         assert_eq!(value_of(&d, "tracking").as_deref(), Some("Grid"));
         assert_eq!(value_of(&d, "features").as_deref(), Some("Active"));
         assert_eq!(
