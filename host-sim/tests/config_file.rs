@@ -79,6 +79,16 @@ fn precedence_is_preset_then_file_then_flags() {
     let flagged = ok(&["config", "--config", &file, "--peaks", "8"]);
     assert!(flagged.contains("\nnum_peaks = 8\n"), "{flagged}");
     assert!(flagged.contains("\nband_hi_hz = 3500.0\n"), "{flagged}");
+    // A switch flag flips only the switch: the stage's settings from the file stay.
+    let tracks = write(
+        dir.path(),
+        "tracks.toml",
+        "[multi_track]\ngate_deg = 25.0\n",
+    );
+    let on = ok(&["config", "--config", &tracks, "--multi-talker", "on"]);
+    assert!(on.contains("\ngate_deg = 25.0\n"), "{on}");
+    let section = on.split("[multi_track]").nth(1).unwrap_or_default();
+    assert!(section.contains("\nenabled = true\n"), "{on}");
 }
 
 #[test]
@@ -161,7 +171,7 @@ fn the_file_reaches_locate() {
 fn help_shows_the_file_key_and_preset_values_by_stage_with_an_example() {
     let help = ok(&["locate", "--help"]);
     for want in [
-        "[file: num_peaks = 10 (default), 10 (thesis)]",
+        "[file: num_peaks = 16 (default), 10 (thesis)]",
         "[file: tracking = Grid (default), OnePole (thesis)]",
         "Tracking:",
         "Self-calibration:",

@@ -21,7 +21,7 @@
 use crate::error::{Result, SimError};
 use crate::multi_talker_scene::{truth_path, MANIFEST_HEADER};
 use crate::wav_io::{read_recording, InputLayout, Recording};
-use cma_core::multi_track::{MultiTrack, TalkerTrack};
+use cma_core::multi_track::TalkerTrack;
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -42,12 +42,10 @@ pub struct TrackFrame {
     pub tracks: Vec<TalkerTrack>,
 }
 
-/// `config` with the multi-talker stage on (its settings unchanged when it already is).
+/// `config` with the multi-talker stage on, its other settings (a configuration file's) unchanged.
 #[must_use]
 pub fn with_tracks(mut config: LocatorConfig) -> LocatorConfig {
-    if !config.multi_track.enabled {
-        config.multi_track = MultiTrack::DEFAULT;
-    }
+    config.multi_track.enabled = true;
     config
 }
 

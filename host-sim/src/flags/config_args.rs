@@ -478,10 +478,8 @@ impl ConfigArgs {
             c.capsule_calibration.enabled = v == OnOff::On;
         }
         if let Some(v) = self.multi_talker {
-            c.multi_track = match v {
-                OnOff::On => cma_core::multi_track::MultiTrack::DEFAULT,
-                OnOff::Off => cma_core::multi_track::MultiTrack::OFF,
-            };
+            // Only the switch: the stage's settings stay what the preset or the file made them.
+            c.multi_track.enabled = v == OnOff::On;
         }
         if let Some(v) = self.selfcal_adapt {
             c.capsule_calibration.adapt = v == OnOff::On;
@@ -612,7 +610,7 @@ pub const FLAG_KEYS: &[(&str, &str)] = &[
 ];
 
 /// The note each configuration flag's help ends with: the file key it sets and its value in each
-/// preset, e.g. `[file: num_peaks = 10 (default), 10 (thesis)]`, taken from the presets themselves
+/// preset, e.g. `[file: num_peaks = 16 (default), 10 (thesis)]`, taken from the presets themselves
 /// so the help cannot drift from the code. Pairs of flag id and note, for [`annotate`].
 #[must_use]
 pub fn flag_notes() -> Vec<(&'static str, String)> {
