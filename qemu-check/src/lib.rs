@@ -34,8 +34,9 @@ pub enum Mode {
     /// Run one stage `arg` times on a fixed analysis frame ([`stages::Stage`]).
     Stage(stages::Stage),
     /// Run `(arg >> 8) & 0xfff` hops of input kind `arg & 0xff` ([`inputs::InputKind::from_index`])
-    /// through the default localizer in blocks of `arg >> 20` sample frames, or of
-    /// [`FIRMWARE_BLOCK`] for 0 ([`run_hops`]), for per-hop instruction counts.
+    /// in blocks of `(arg >> 20) & 0x7ff` sample frames, or of [`FIRMWARE_BLOCK`] for 0
+    /// ([`run_hops`]), through the default localizer, or with bit 31 set through the default with
+    /// the multi-talker tracks on ([`multi_talker_config`]), for per-hop instruction counts.
     Hops,
 }
 
@@ -151,6 +152,7 @@ pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
         }
     }
     run_hops(
+        cma_core::LocatorConfig::default(),
         kind,
         CHECK_KIND_HOPS,
         FIRMWARE_BLOCK,
@@ -220,15 +222,21 @@ pub trait HopMarks {
 /// Longest block [`run_hops`] takes (one hop).
 pub const MAX_BLOCK: usize = scene::HOP_SAMPLES;
 
-/// Runs `hops` hops of `kind` through a default [`cma_core::Locator`] at the firmware's rate
+/// Runs `hops` hops of `kind` through a [`cma_core::Locator`] of `config` at the firmware's rate
 /// ([`FIRMWARE_RATE_HZ`]) in blocks of `block` sample frames (at most [`MAX_BLOCK`]; the firmware's
 /// is [`FIRMWARE_BLOCK`]), as the firmware calls it.
 ///
 /// # Panics
-/// Never (the default configuration is valid at the firmware's rate).
-pub fn run_hops(kind: inputs::InputKind, hops: usize, block: usize, marks: &mut impl HopMarks) {
+/// When `config` is not valid at the firmware's rate (the default and [`multi_talker_config`] are).
+pub fn run_hops(
+    config: cma_core::LocatorConfig,
+    kind: inputs::InputKind,
+    hops: usize,
+    block: usize,
+    marks: &mut impl HopMarks,
+) {
     let mut locator = cma_core::Locator::new(
-        cma_core::LocatorConfig::default(),
+        config,
         cma_core::ReferenceTable::ideal_5deg(),
         FIRMWARE_RATE_HZ,
     )

@@ -6,7 +6,8 @@
 //!   semihosting, then `END <count>`;
 //! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
 //!   instruction counting (`scripts/cost.sh`);
-//! * mode 8: runs hops of an input kind in the firmware's blocks (see [`qemu_check::Mode::Hops`]), entering
+//! * mode 8: runs hops of an input kind in the firmware's blocks, default or multi-talker configuration
+//!   (see [`qemu_check::Mode::Hops`]), entering
 //!   the mark functions that `scripts/cost.sh` follows for per-hop counts;
 //! * mode 9: runs the pipeline with the multi-talker tracks on `arg` times, silently (the cost of
 //!   that configuration, `scripts/cost.sh`).
@@ -106,11 +107,16 @@ mod target {
                     hprintln!("unknown input kind {}", arg & 0xff);
                     exit(debug::EXIT_FAILURE)
                 };
-                let block = match arg >> 20 {
+                let block = match (arg >> 20) & 0x7ff {
                     0 => FIRMWARE_BLOCK,
                     b => b,
                 };
-                run_hops(kind, (arg >> 8) & 0xfff, block, &mut Marks);
+                let config = if arg >> 31 == 1 {
+                    multi_talker_config()
+                } else {
+                    cma_core::LocatorConfig::default()
+                };
+                run_hops(config, kind, (arg >> 8) & 0xfff, block, &mut Marks);
             }
             Some(Mode::Stage(stage)) => {
                 let mut slot = MaybeUninit::uninit();
