@@ -14,7 +14,7 @@ pub mod localization;
 pub mod simulation;
 
 // Every library module also at the crate root, where the rest of the crate and its users name it.
-pub use calibration::{calibrate, sweep};
+pub use calibration::{calibrate, selfcal_table, sweep};
 pub use commands::{emit, monitor, score};
 pub use evaluation::{distance_eval, eval, metrics, multi_talker_eval, options_eval, plots};
 pub use flags::{arg_values, config_args};
@@ -79,7 +79,8 @@ pub enum Command {
     /// Write the exponential sine sweep (thesis eq. 2.43) to play for a calibration.
     #[command(allow_negative_numbers = true)]
     Sweep(commands::sweep::SweepArgs),
-    /// Measure a reference table from sweep recordings at known azimuths.
+    /// Measure a reference table from sweep recordings at known azimuths, or compute one from a
+    /// self-calibration estimate (--selfcal-in).
     #[command(allow_negative_numbers = true)]
     Calibrate(commands::calibrate::CalibrateArgs),
     /// Print the localizer configuration (preset, file and flags applied) as a configuration file.

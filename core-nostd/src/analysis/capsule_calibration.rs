@@ -65,8 +65,16 @@ const DIPOLE_EVIDENCE: f32 = 16.0;
 /// Background peaks per band at which the confidence is ½.
 pub const CONFIDENT_PEAKS: f32 = 1000.0;
 
-/// E|D_m|² / E|W|² assumed for the diffuse field (3-D isotropic).
-const KAPPA: f32 = 1.0 / 3.0;
+/// E|D_m|² / E|W|² assumed for the diffuse field (3-D isotropic): the dipole part's share of the
+/// omni power, ⅓.
+pub const KAPPA: f32 = 1.0 / 3.0;
+
+/// The band (index into [`CapsuleEstimate::bands`]) that frequency `f_hz` falls in: the number of
+/// edges [`CAL_BAND_EDGES_HZ`] at or below it (an edge belongs to the band above it; NaN gives 0).
+#[must_use]
+pub fn band_of_frequency(f_hz: f32) -> usize {
+    CAL_BAND_EDGES_HZ.iter().filter(|e| f_hz >= **e).count()
+}
 
 /// Settings of the self-calibration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -548,10 +556,7 @@ impl CapsuleCalibrationState {
     ) {
         *self = Self::idle();
         self.settings = settings;
-        let band_of = |k: usize| {
-            let f = crate::spectrum::bin_frequency(k, fs);
-            CAL_BAND_EDGES_HZ.iter().filter(|e| f >= **e).count()
-        };
+        let band_of = |k: usize| band_of_frequency(crate::spectrum::bin_frequency(k, fs));
         for (b, range) in self.band_bins.iter_mut().enumerate() {
             let start = (0..NUM_BINS)
                 .position(|k| band_of(k) >= b)
@@ -833,6 +838,9 @@ mod tests {
         assert_eq!(st.band_of_bin(21), 0);
         assert_eq!(st.band_of_bin(22), 1);
         assert_eq!(st.band_of_bin(NUM_BINS - 1), CAL_BANDS - 1);
+        // An edge belongs to the band above it.
+        let bands = [0.0, 499.9, 500.0, 999.0, 1000.0, 2000.0, 8000.0, f32::NAN];
+        assert_eq!(bands.map(band_of_frequency), [0, 0, 1, 1, 2, 3, 3, 0]);
     }
 
     #[test]

@@ -83,36 +83,48 @@ impl Default for CalibrationOptions {
     }
 }
 
+/// Most frequency rows a calibrated table may have.
+pub const MAX_FREQ_ROWS: usize = 4096;
+
+/// The frequency rows `lo_hz`, `lo_hz + step_hz`, … up to `hi_hz` (inclusive, rounded to the step),
+/// Hz; a usage error unless 0 < lo ≤ hi and step > 0 (all finite) give at most [`MAX_FREQ_ROWS`] rows.
+pub fn freq_rows(lo_hz: f64, hi_hz: f64, step_hz: f64) -> Result<Vec<f64>> {
+    let usage = |m: String| Err(SimError::Usage(m));
+    let finite = lo_hz.is_finite() && hi_hz.is_finite() && step_hz.is_finite();
+    if !(finite && step_hz > 0.0 && lo_hz > 0.0 && lo_hz <= hi_hz) {
+        return usage(format!(
+            "calibrate: need 0 < freq-lo ≤ freq-hi and freq-step > 0, got {lo_hz}..{hi_hz} step {step_hz} Hz"
+        ));
+    }
+    // Counted before anything is allocated: a tiny step must not ask for billions of rows.
+    let steps = ((hi_hz - lo_hz) / step_hz + 1e-9).floor();
+    if !(steps < MAX_FREQ_ROWS as f64) {
+        return usage(format!(
+            "calibrate: more than {MAX_FREQ_ROWS} frequency rows ({lo_hz}..{hi_hz} step {step_hz} Hz)"
+        ));
+    }
+    Ok((0..=steps as usize)
+        .map(|i| lo_hz + i as f64 * step_hz)
+        .collect())
+}
+
 impl CalibrationOptions {
-    /// The frequency rows, Hz.
+    /// The frequency rows, Hz ([`freq_rows`]; empty when the options are not valid).
     #[must_use]
     pub fn freqs_hz(&self) -> Vec<f64> {
-        let n =
-            ((self.freq_hi_hz - self.freq_lo_hz) / self.freq_step_hz + 1e-9).floor() as usize + 1;
-        (0..n)
-            .map(|i| self.freq_lo_hz + i as f64 * self.freq_step_hz)
-            .collect()
+        freq_rows(self.freq_lo_hz, self.freq_hi_hz, self.freq_step_hz).unwrap_or_default()
     }
 
     fn validate(&self) -> Result<()> {
         self.sweep.validate()?;
         let nyq = f64::from(self.sweep.rate) / 2.0;
         let usage = |m: String| Err(SimError::Usage(m));
-        if !(self.freq_step_hz > 0.0 && self.freq_lo_hz > 0.0 && self.freq_lo_hz <= self.freq_hi_hz)
-        {
-            return usage(format!(
-                "calibrate: need 0 < freq-lo ≤ freq-hi and freq-step > 0, got {}..{} step {} Hz",
-                self.freq_lo_hz, self.freq_hi_hz, self.freq_step_hz
-            ));
-        }
+        freq_rows(self.freq_lo_hz, self.freq_hi_hz, self.freq_step_hz)?;
         if self.freq_lo_hz < self.sweep.f1 || self.freq_hi_hz > self.sweep.f2.min(nyq) {
             return usage(format!(
                 "calibrate: table band {}–{} Hz must lie inside the sweep's band {}–{} Hz (and below {nyq} Hz)",
                 self.freq_lo_hz, self.freq_hi_hz, self.sweep.f1, self.sweep.f2
             ));
-        }
-        if self.freqs_hz().len() > 4096 {
-            return usage("calibrate: more than 4096 frequency rows".into());
         }
         if !(0.0..1.0).contains(&self.smoothing) {
             return usage(format!(
@@ -265,7 +277,7 @@ pub fn calibrate(
     }
     if measurements.is_empty() {
         return Err(SimError::Usage(
-            "calibrate: no recordings given (--rec AZ=FILE or --dir DIR)".into(),
+            "calibrate: no recordings given (--rec AZ=FILE or --dir DIR; or --selfcal-in FILE for the table of a self-calibration estimate)".into(),
         ));
     }
     let freqs = opts.freqs_hz();
@@ -824,6 +836,41 @@ mod tests {
             measured < 0.7 * ideal,
             "measured {measured:.2}°, ideal {ideal:.2}°"
         );
+    }
+
+    /// A sweep calibration of an imperfect array and the table of its true capsule model
+    /// ([`crate::selfcal_table`]) agree: the same features and the same magnitude and active noise
+    /// rows. Only the power noise row differs, by design: the sweeps see a horizontal diffuse field
+    /// (√(a² + ½b²)), the estimate's table assumes a 3-D one (√(a² + ⅓b²)).
+    #[test]
+    fn the_table_of_the_true_capsule_model_agrees() {
+        let o = opts();
+        let sweep = o.sweep.generate();
+        let model = ArrayModel {
+            beta_drift: 0.0,
+            ..imperfect()
+        };
+        let recs = record_all(&sweep, (0..24).map(|q| q as f64 * 15.0), &model, None);
+        let swept = calibrate(&recs, &sweep, &o).unwrap().table;
+        let est = model.capsule_estimate(1e6).unwrap();
+        let t = crate::selfcal_table::table_from_estimate(&est, &o.freqs_hz(), &swept.azimuths_deg)
+            .unwrap();
+        assert_eq!(t.freqs_hz, swept.freqs_hz);
+        // Anechoic sweeps of the model measure it to float precision (about 1e-7).
+        let worst = |x: &[Feature], y: &[Feature]| {
+            x.iter()
+                .zip(y)
+                .flat_map(|(p, q)| p.iter().zip(q).map(|(u, v)| (u - v).abs()))
+                .fold(0.0f32, f32::max)
+        };
+        assert!(worst(&t.features, &swept.features) < 1e-4);
+        assert!(worst(&t.active, &swept.active) < 1e-4);
+        assert!(worst(&t.noise_magnitude, &swept.noise_magnitude) < 1e-4);
+        assert!(worst(&t.noise_active, &swept.noise_active) < 1e-4);
+        let b = &est.bands[0];
+        let horizontal =
+            [0, 1, 2].map(|m| (b.omni_part[m].powi(2) + 0.5 * b.dipole_part[m].powi(2)).sqrt());
+        assert!(worst(&vec![horizontal; t.freqs_hz.len()], &swept.noise_power) < 1e-4);
     }
 
     #[test]

@@ -1,12 +1,15 @@
 //! `host-sim calibrate`: argument parsing, file reading and the table plot of the calibration. The
-//! computation is in [`crate::calibrate`].
+//! computation is in [`crate::calibrate`] (from sweeps) and [`crate::selfcal_table`] (from a
+//! self-calibration estimate, `--selfcal-in`).
 
 use crate::calibrate::{self, CalibrationOptions, Measurement};
 use crate::error::{Result, SimError};
 use crate::sweep::SweepSpec;
 use crate::table_io::OwnedTable;
 use crate::wav_io::{read_four_channels, read_mono};
-use cma_core::CARDIOID_LOOK_DEG;
+use crate::{selfcal_file, selfcal_table};
+use cma_core::capsule_calibration::CAL_BANDS;
+use cma_core::{ReferenceTable, CARDIOID_LOOK_DEG};
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -64,7 +67,34 @@ pub struct CalibrateArgs {
     /// Also draw the table (features vs azimuth per capsule at four frequencies) into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Compute the table from a self-calibration estimate (a `locate --selfcal-out` file) instead
+    /// of measuring it from sweeps: each frequency row (--freq-lo/--freq-hi/--freq-step) takes the
+    /// capsule model of its band, on the azimuth grid of --grid, with the noise rows of a 3-D
+    /// diffuse field. Not with --rec/--dir or the sweep's flags.
+    #[arg(long, value_name = "FILE", conflicts_with_all = SWEEP_ONLY)]
+    pub selfcal_in: Option<PathBuf>,
+    /// With --selfcal-in: azimuth grid of the table, degrees, 5 or 15 (default 5, the ideal table's
+    /// grid; 15 for a table small enough for the firmware's flash, with --freq-step 187.5).
+    #[arg(long, value_name = "DEG", requires = "selfcal_in", conflicts_with_all = SWEEP_ONLY)]
+    pub grid: Option<u32>,
 }
+
+/// The flags (argument ids) of a calibration from sweeps, which `--selfcal-in` and `--grid` do not
+/// take. (A flag that conflicts with one given is not required, so `--grid` needs both its
+/// `requires` and these conflicts.)
+const SWEEP_ONLY: [&str; 11] = [
+    "recordings",
+    "dir",
+    "sweep",
+    "f1",
+    "f2",
+    "seconds",
+    "rate",
+    "window_ms",
+    "pre_ms",
+    "smooth",
+    "symmetry",
+];
 
 /// Reads one 4-channel recording.
 pub fn read_measurement(path: &Path, azimuth_deg: f64) -> Result<Measurement> {
@@ -281,6 +311,9 @@ pub fn run(a: &CalibrateArgs) -> Result<()> {
             )));
         }
     }
+    if let Some(path) = &a.selfcal_in {
+        return run_from_estimate(a, path);
+    }
     let (sweep, spec, notes) = resolve_sweep(a)?;
     for n in notes {
         eprintln!("note: {n}");
@@ -321,6 +354,54 @@ pub fn run(a: &CalibrateArgs) -> Result<()> {
         table.freqs_hz.first().copied().unwrap_or(0.0),
         table.freqs_hz.last().copied().unwrap_or(0.0),
         infos.len(),
+        calibrate::max_deviation_from_ideal(&table)
+    );
+    if let Some(p) = &a.plot {
+        table_plot(p, &table)?;
+    }
+    Ok(())
+}
+
+/// `calibrate --selfcal-in FILE`: the table of a saved self-calibration estimate
+/// ([`crate::selfcal_table`]), on the azimuth grid of the core's ideal table of `--grid`. Everything
+/// is read and checked before the table is written (atomically).
+fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
+    let grid = match a.grid.unwrap_or(5) {
+        5 => ReferenceTable::ideal_5deg(),
+        15 => ReferenceTable::ideal_15deg(),
+        g => {
+            return Err(SimError::Usage(format!(
+                "--grid: expected 5 or 15 (degrees), got {g}"
+            )))
+        }
+    };
+    let freqs = calibrate::freq_rows(a.freq_lo, a.freq_hi, a.freq_step)?;
+    let est = selfcal_file::read(path)?;
+    let table = selfcal_table::table_from_estimate(&est, &freqs, grid.azimuths_deg())?;
+    table.write(&a.out)?;
+    let confidence = (0..CAL_BANDS)
+        .map(|b| est.confidence(b))
+        .fold(1.0f32, f32::min);
+    eprint!("{}", selfcal_file::summary(&est, confidence));
+    let deviates = est.bands.iter().any(|b| {
+        b.omni_part
+            .iter()
+            .chain(&b.dipole_part)
+            .any(|v| (v - 0.5).abs() > 1e-3)
+    });
+    if confidence < 0.5 && deviates {
+        eprintln!(
+            "note: the estimate rests on few background peaks in some band (confidence {confidence:.2} < 0.5); the table applies its deviations from the ideal capsule in full, where the running self-calibration applies only what clears their sampling error: a longer recording gives a firmer estimate"
+        );
+    }
+    eprintln!(
+        "{}: {} azimuths × {} frequencies ({}–{} Hz) from the self-calibration estimate {}; max |feature − ideal| {:.3}",
+        a.out.display(),
+        table.azimuths_deg.len(),
+        table.freqs_hz.len(),
+        table.freqs_hz.first().copied().unwrap_or(0.0),
+        table.freqs_hz.last().copied().unwrap_or(0.0),
+        path.display(),
         calibrate::max_deviation_from_ideal(&table)
     );
     if let Some(p) = &a.plot {

@@ -13,6 +13,7 @@
 //! always used, ½W + ½(X cos φ_m + Y sin φ_m), so ideal scenes stay bit-identical.
 
 use crate::error::{Result, SimError};
+use cma_core::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS};
 use cma_core::{CARDIOIDS, CARDIOID_LOOK_DEG};
 use std::f64::consts::PI;
 
@@ -53,6 +54,30 @@ impl ArrayModel {
         self.gains_db == [0.0; CARDIOIDS]
             && self.betas == [0.5; CARDIOIDS]
             && self.beta_drift == 0.0
+    }
+
+    /// These capsules in the self-calibration's model X_m = a_m·W + b_m·D_m: from the rendering
+    /// c_m = g_m·((1 − β_m)·W + β_m·D_m), the omni part a_m = g_m·(1 − β_m) and the dipole part
+    /// b_m = g_m·β_m, the same in every band, with `peaks` as each band's count of background peaks.
+    /// `None` for a frequency-dependent pattern (Δβ ≠ 0), which no constant per band describes.
+    #[must_use]
+    pub fn capsule_estimate(&self, peaks: f32) -> Option<CapsuleEstimate> {
+        if self.beta_drift != 0.0 {
+            return None;
+        }
+        let mut band = BandModel {
+            peaks,
+            ..BandModel::IDEAL
+        };
+        for m in 0..CARDIOIDS {
+            let g = 10f64.powf(self.gains_db[m] / 20.0);
+            band.omni_part[m] = (g * (1.0 - self.betas[m])) as f32;
+            band.dipole_part[m] = (g * self.betas[m]) as f32;
+        }
+        Some(CapsuleEstimate {
+            bands: [band; CAL_BANDS],
+            held: false,
+        })
     }
 
     /// Checks ranges: |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0.
@@ -166,6 +191,40 @@ mod tests {
         assert!((out[0][1] - want).abs() < 1e-12);
         assert_eq!(out[0][0], 1.0);
         assert!(ArrayModel::ideal().is_ideal() && !m.is_ideal());
+    }
+
+    /// The self-calibration's model of the capsules renders the same signals: a_m·W + b_m·D_m.
+    #[test]
+    fn capsule_estimate_is_the_rendered_model() {
+        let m = ArrayModel {
+            gains_db: [1.0, -1.0, 0.5],
+            betas: [0.45, 0.55, 0.5],
+            ..ArrayModel::ideal()
+        };
+        let est = m.capsule_estimate(100.0).unwrap();
+        let (w, x, y) = ([0.7, -0.2], [0.3, 0.9], [-0.4, 0.1]);
+        let out = m.render(&w, &x, &y, 16_000);
+        for band in &est.bands {
+            assert_eq!(band.peaks, 100.0);
+            for (c, look) in CARDIOID_LOOK_DEG.iter().enumerate() {
+                let a = f64::from(*look).to_radians();
+                for i in 0..2 {
+                    let d = x[i] * a.cos() + y[i] * a.sin();
+                    let want =
+                        f64::from(band.omni_part[c]) * w[i] + f64::from(band.dipole_part[c]) * d;
+                    assert!((out[i][c + 1] - want).abs() < 1e-6, "cardioid {c}");
+                }
+            }
+        }
+        assert_eq!(
+            ArrayModel::ideal().capsule_estimate(0.0).unwrap(),
+            CapsuleEstimate::IDEAL
+        );
+        let drifting = ArrayModel {
+            beta_drift: 0.1,
+            ..m
+        };
+        assert_eq!(drifting.capsule_estimate(0.0), None);
     }
 
     #[test]
