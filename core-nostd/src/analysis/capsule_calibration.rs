@@ -204,6 +204,14 @@ impl CapsuleEstimate {
         let n = self.bands[band].peaks;
         n / (n + CONFIDENT_PEAKS)
     }
+
+    /// The overall confidence: the smallest band confidence.
+    #[must_use]
+    pub fn overall_confidence(&self) -> f32 {
+        (0..CAL_BANDS)
+            .map(|b| self.confidence(b))
+            .fold(1.0, f32::min)
+    }
 }
 
 /// Cross-power sums of one band (normalised by frame power, with forgetting).
@@ -616,9 +624,7 @@ impl CapsuleCalibrationState {
     /// The overall confidence: the smallest band confidence.
     #[must_use]
     pub fn confidence(&self) -> f32 {
-        (0..CAL_BANDS)
-            .map(|b| self.accepted.confidence(b))
-            .fold(1.0, f32::min)
+        self.accepted.overall_confidence()
     }
 
     /// The band of bin `k` (three comparisons: [`CAL_BANDS`] is 4).

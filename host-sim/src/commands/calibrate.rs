@@ -8,7 +8,6 @@ use crate::sweep::SweepSpec;
 use crate::table_io::OwnedTable;
 use crate::wav_io::{read_four_channels, read_mono};
 use crate::{selfcal_file, selfcal_table};
-use cma_core::capsule_calibration::CAL_BANDS;
 use cma_core::{ReferenceTable, CARDIOID_LOOK_DEG};
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -346,18 +345,30 @@ pub fn run(a: &CalibrateArgs) -> Result<()> {
         .iter()
         .map(|i| i.crest_db)
         .fold(f64::INFINITY, f64::min);
+    report_table(
+        a,
+        &table,
+        &format!(
+            "{} recordings; lowest IR crest factor {crest:.1} dB",
+            infos.len()
+        ),
+    )
+}
+
+/// The summary line of a written table (`source`: what it was made from) on stderr, then its plot
+/// when `--plot` asks for one.
+fn report_table(a: &CalibrateArgs, table: &OwnedTable, source: &str) -> Result<()> {
     eprintln!(
-        "{}: {} azimuths × {} frequencies ({}–{} Hz) from {} recordings; lowest IR crest factor {crest:.1} dB; max |feature − ideal| {:.3}",
+        "{}: {} azimuths × {} frequencies ({}–{} Hz) from {source}; max |feature − ideal| {:.3}",
         a.out.display(),
         table.azimuths_deg.len(),
         table.freqs_hz.len(),
         table.freqs_hz.first().copied().unwrap_or(0.0),
         table.freqs_hz.last().copied().unwrap_or(0.0),
-        infos.len(),
-        calibrate::max_deviation_from_ideal(&table)
+        calibrate::max_deviation_from_ideal(table)
     );
     if let Some(p) = &a.plot {
-        table_plot(p, &table)?;
+        table_plot(p, table)?;
     }
     Ok(())
 }
@@ -379,9 +390,7 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
     let est = selfcal_file::read(path)?;
     let table = selfcal_table::table_from_estimate(&est, &freqs, grid.azimuths_deg())?;
     table.write(&a.out)?;
-    let confidence = (0..CAL_BANDS)
-        .map(|b| est.confidence(b))
-        .fold(1.0f32, f32::min);
+    let confidence = est.overall_confidence();
     eprint!("{}", selfcal_file::summary(&est, confidence));
     let deviates = est.bands.iter().any(|b| {
         b.omni_part
@@ -394,20 +403,11 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
             "note: the estimate rests on few background peaks in some band (confidence {confidence:.2} < 0.5); the table applies its deviations from the ideal capsule in full, where the running self-calibration applies only what clears their sampling error: a longer recording gives a firmer estimate"
         );
     }
-    eprintln!(
-        "{}: {} azimuths × {} frequencies ({}–{} Hz) from the self-calibration estimate {}; max |feature − ideal| {:.3}",
-        a.out.display(),
-        table.azimuths_deg.len(),
-        table.freqs_hz.len(),
-        table.freqs_hz.first().copied().unwrap_or(0.0),
-        table.freqs_hz.last().copied().unwrap_or(0.0),
-        path.display(),
-        calibrate::max_deviation_from_ideal(&table)
-    );
-    if let Some(p) = &a.plot {
-        table_plot(p, &table)?;
-    }
-    Ok(())
+    report_table(
+        a,
+        &table,
+        &format!("the self-calibration estimate {}", path.display()),
+    )
 }
 
 /// Draws a table: features vs azimuth per capsule at four frequency rows (near 300, 1000, 2000 and
