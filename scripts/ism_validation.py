@@ -62,20 +62,26 @@ def positions(rng):
             return rx, src
 
 
+def image_sources(dims, rt60, rx, src, max_order=None):
+    """The image sources of pyroomacoustics for `src` heard at `rx` in a shoebox `dims` of
+    reverberation time `rt60` (up to `max_order` reflections, default the order Sabine's formula
+    asks for): each image's offset from `rx` (3 x N), distance and wall damping."""
+    e_abs, order = pra.inverse_sabine(rt60, dims)
+    room = pra.ShoeBox(dims, fs=FS, materials=pra.Material(e_abs),
+                       max_order=order if max_order is None else max_order)
+    room.add_source(src)
+    room.add_microphone(rx)
+    room.image_source_model()
+    d = room.sources[0].images - rx[:, None]
+    return d, np.linalg.norm(d, axis=0), room.sources[0].damping[0]
+
+
 def image_source_ambix(dims, rt60, rx, src, divisor):
     """First-order AmbiX (ACN W, Y, Z, X; SN3D) response of RIR_SECONDS from `src` to `rx` in a
     shoebox `dims` of reverberation time `rt60`, from the image sources of pyroomacoustics (delay,
     gain and direction of each image; fractional delays by a Hann-windowed sinc). An image at
     distance r has the gain damping / divisor(r); not normalised."""
-    e_abs, max_order = pra.inverse_sabine(rt60, dims)
-    room = pra.ShoeBox(dims, fs=FS, materials=pra.Material(e_abs), max_order=max_order)
-    room.add_source(src)
-    room.add_microphone(rx)
-    room.image_source_model()
-    images = room.sources[0].images
-    damping = room.sources[0].damping[0]
-    d = images - rx[:, None]
-    r = np.linalg.norm(d, axis=0)
+    d, r, damping = image_sources(dims, rt60, rx, src)
     length = int(RIR_SECONDS * FS)
     t = r / SPEED_OF_SOUND * FS
     keep = t < length - HALF_TAPS - 1

@@ -24,7 +24,6 @@ import subprocess
 import sys
 
 import numpy as np
-import pyroomacoustics as pra
 import scipy.io.wavfile as wavfile
 
 import ism_validation as ism
@@ -36,16 +35,8 @@ CLAIM_CORRELATION = 0.7
 def early_field_offset(rx, src):
     """Azimuth of the energy-weighted early field relative to the direct sound, degrees, and the
     talker's distance to the nearest wall, m."""
-    e_abs, _ = pra.inverse_sabine(ism.RT60, ism.DIMS)
-    room = pra.ShoeBox(ism.DIMS, fs=ism.FS, materials=pra.Material(e_abs), max_order=6)
-    room.add_source(src)
-    room.add_microphone(rx)
-    room.image_source_model()
-    images = room.sources[0].images
-    gain = room.sources[0].damping[0]
-    d = images - rx[:, None]
-    r = np.linalg.norm(d, axis=0)
-    g = gain / r
+    d, r, damping = ism.image_sources(ism.DIMS, ism.RT60, rx, src, max_order=6)
+    g = damping / r
     i0 = np.argmin(r)
     early = (r - r[i0]) / ism.SPEED_OF_SOUND * 1000.0 <= EARLY_MS
     u = d[:2, early] / r[early]
