@@ -95,7 +95,7 @@ pub use analysis::{
 };
 pub use arith::{angle, fast_exp, fast_math};
 pub use baselines::{bformat, fdiv, intensity, tdiv};
-pub use formats::{capsule_estimate_file, table_file, wire};
+pub use formats::{capsule_estimate_file, capsule_estimate_record, table_file, wire};
 pub use frontend::{block_decimator, decimator, framer, front_end, input_guard};
 pub use localization::{
     curve_kernel, embedded_table, frame_onset, interpolation, noise_floor, noisy_reference,

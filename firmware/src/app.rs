@@ -14,16 +14,20 @@
 //! `crate::board` (`src/board.rs`: STM32F411CE with two I2S ADCs; `src/board_f446.rs`:
 //! NUCLEO-F446RE with one 4-channel TDM ADC on SAI; `src/board_mps2.rs`: QEMU `mps2-an386`).
 //!
-//! The self-calibration starts from the estimate embedded at build time
-//! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it). A build with
+//! The self-calibration starts from the newest estimate the board saved in its flash
+//! ([`cma_firmware::estimate_store`]), else from the one embedded at build time
+//! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it), and saves a confident,
+//! changed estimate at a calibration snapshot at most once a minute. A build with
 //! the `multi-talker` feature runs the multi-talker tracks and sends a `$TRK,…` line after every
 //! frame line.
 
 use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
 use cma_core::capsule_calibration::CapsuleEstimate;
+use cma_core::capsule_estimate_record::key_of;
 use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
 use cma_firmware::board_api::{FrameWriter, SampleSource, Watchdog as _};
+use cma_firmware::estimate_store::{EstimateStore, SavePolicy};
 use cma_firmware::stats::Counters;
 use cma_firmware::stored_capsules;
 use embassy_executor::Spawner;
@@ -76,9 +80,61 @@ pub async fn run(spawner: Spawner) {
     );
 
     let locator = init_locator();
+    let persistence = board
+        .estimate_flash
+        .and_then(|flash| open_estimate_store(flash, locator));
 
     spawner.spawn(uart_task(board.uart).unwrap());
-    spawner.spawn(dsp_task(board.audio, locator, board.watchdog).unwrap());
+    spawner.spawn(dsp_task(board.audio, locator, board.watchdog, persistence).unwrap());
+}
+
+/// The estimate store and when to save to it.
+type Persistence = (EstimateStore<board::EstimateFlash>, SavePolicy);
+
+/// The persistence state, built in place by [`open_estimate_store`] (the tasks' futures hold a
+/// pointer to it, not a copy, which keeps it off the boot path's stack frames).
+static PERSISTENCE: StaticCell<Persistence> = StaticCell::new();
+
+/// Opens the estimate store (when the self-calibration runs): the self-calibration starts from its
+/// newest record of this build, and a full store is compacted now, before the capture starts.
+#[inline(never)]
+fn open_estimate_store(
+    flash: board::EstimateFlash,
+    locator: &mut Locator<'_>,
+) -> Option<&'static mut Persistence> {
+    if !locator.config().capsule_calibration.enabled {
+        return None;
+    }
+    let key = key_of(&stored_capsules::STORED);
+    let (mut store, scan) = match EstimateStore::open(
+        flash,
+        board::ESTIMATE_STORE_OFFSET,
+        board::ESTIMATE_STORE_LEN,
+        key,
+    ) {
+        Ok(opened) => opened,
+        Err(e) => {
+            defmt::warn!("estimate store unreadable ({}): not used", e);
+            return None;
+        }
+    };
+    if let Some(latest) = scan.latest {
+        locator.set_capsule_estimate(&latest.estimate);
+        defmt::info!(
+            "self-calibration starts from stored record {} ({} records, {} skipped)",
+            latest.sequence,
+            scan.records,
+            scan.skipped
+        );
+    }
+    if store.is_full() {
+        defmt::info!("estimate store full: compacting");
+        if let Err(e) = store.compact(scan.latest.as_ref()) {
+            defmt::warn!("estimate store compaction failed: {}", e);
+        }
+    }
+    let loaded = scan.latest.map(|r| r.estimate);
+    Some(PERSISTENCE.init((store, SavePolicy::new(SAMPLE_RATE_HZ, loaded.as_ref()))))
 }
 
 /// Builds the localizer in [`LOCATOR`]. Not inlined, so that its stack frame (the small temporaries
@@ -142,14 +198,18 @@ fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
 /// [`wire::CALIBRATION_PERIOD_S`] seconds after the previous one ([`CalibrationSchedule`]), the
 /// self-calibration's estimate is copied (≈ 0.1 KB, outside the localizer's per-hop work) and queued
 /// the same way; a full queue drops it and counts it in the calibration line's `drop` field.
+/// At a snapshot the [`SavePolicy`] may decide to save the estimate to the store, which happens
+/// [`SAVE_DELAY_BLOCKS`] blocks later.
 #[embassy_executor::task]
 async fn dsp_task(
     mut audio: AudioIn,
     locator: &'static mut Locator<'static>,
     mut watchdog: Watchdog,
+    mut persistence: Option<&'static mut Persistence>,
 ) {
     let mut block = [[0.0f32; CHANNELS]; BLOCK_FRAMES];
     let mut schedule = CalibrationSchedule::new(SAMPLE_RATE_HZ);
+    let mut save_in_blocks: Option<u8> = None;
     if schedule.due(0) {
         send_calibration(locator, 0);
     }
@@ -183,7 +243,49 @@ async fn dsp_task(
         }
         if let Some(centre_sample) = calibration_due {
             send_calibration(locator, centre_sample);
+            if let Some((_, policy)) = persistence.as_mut() {
+                if save_due(policy, locator, centre_sample) {
+                    save_in_blocks = Some(SAVE_DELAY_BLOCKS);
+                }
+            }
         }
+        save_in_blocks = match save_in_blocks {
+            Some(0) => {
+                if let Some((store, _)) = persistence.as_mut() {
+                    save_estimate(store, locator.capsule_estimate());
+                }
+                None
+            }
+            n => n.map(|n| n - 1),
+        };
+    }
+}
+
+/// Blocks between a calibration snapshot (at the end of an analysis hop) and the save of its
+/// estimate: half-way to the next hop (8 blocks of 32 sample frames), when the capture ring holds
+/// no late block and the estimate is still the snapshot's.
+const SAVE_DELAY_BLOCKS: u8 = 4;
+
+const _: () = assert!((SAVE_DELAY_BLOCKS as usize + 1) * BLOCK_FRAMES < 256);
+
+/// Whether the snapshot at `centre_sample` is to be saved ([`SavePolicy::due`]). Not inlined, like
+/// [`save_estimate`].
+#[inline(never)]
+fn save_due(policy: &mut SavePolicy, locator: &Locator<'_>, centre_sample: u64) -> bool {
+    policy.due(
+        locator.capsule_estimate(),
+        locator.capsule_confidence(),
+        centre_sample,
+    )
+}
+
+/// Appends `estimate` to the store (blocking flash programming, ≤ 3.6 ms). Not inlined: the record's
+/// buffer lives in this frame only while it runs, not in the DSP task's.
+#[inline(never)]
+fn save_estimate(store: &mut EstimateStore<board::EstimateFlash>, estimate: &CapsuleEstimate) {
+    match store.save(estimate) {
+        Ok(sequence) => defmt::info!("estimate saved as record {}", sequence),
+        Err(e) => defmt::warn!("estimate not saved: {}", e),
     }
 }
 

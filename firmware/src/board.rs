@@ -25,6 +25,7 @@ use cma_core::CHANNELS;
 use cma_firmware::board_api::{Overrun, SampleSource};
 use cma_firmware::i2s_align::{align, channel_matches, StreamPosition};
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
+use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::i2s::{self, I2S};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
@@ -293,7 +294,17 @@ pub struct Board {
     pub uart: FrameTx,
     /// The watchdog (not yet started).
     pub watchdog: Watchdog,
+    /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
+    pub estimate_flash: Option<EstimateFlash>,
 }
+
+/// The flash driver of the estimate store (offsets from the start of flash).
+pub type EstimateFlash = Flash<'static, Blocking>;
+/// Offset of the estimate store in flash: sector 7 (0x0806_0000), which `memory.x` keeps out of
+/// the image.
+pub const ESTIMATE_STORE_OFFSET: u32 = 0x6_0000;
+/// Bytes of the estimate store: the whole 128 KB sector (910 records).
+pub const ESTIMATE_STORE_LEN: u32 = 0x2_0000;
 
 /// Configures clocks and peripherals.
 pub fn init() -> Board {
@@ -349,5 +360,6 @@ pub fn init() -> Board {
         },
         uart: FrameTx::new(uart, "USART1"),
         watchdog,
+        estimate_flash: Some(Flash::new_blocking(p.FLASH)),
     }
 }

@@ -31,6 +31,7 @@ use cma_core::CHANNELS;
 use cma_firmware::board_api::{Overrun, SampleSource};
 use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
+use embassy_stm32::flash::{self, Flash};
 use embassy_stm32::i2c::{self, I2c};
 use embassy_stm32::mode::Blocking;
 use embassy_stm32::sai::{self, Sai};
@@ -273,7 +274,17 @@ pub struct Board {
     pub uart: FrameTx,
     /// The watchdog (not yet started).
     pub watchdog: Watchdog,
+    /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
+    pub estimate_flash: Option<EstimateFlash>,
 }
+
+/// The flash driver of the estimate store (offsets from the start of flash).
+pub type EstimateFlash = Flash<'static, flash::Blocking>;
+/// Offset of the estimate store in flash: sector 7 (0x0806_0000), which `memory-f446.x` keeps out of
+/// the image.
+pub const ESTIMATE_STORE_OFFSET: u32 = 0x6_0000;
+/// Bytes of the estimate store: the whole 128 KB sector (910 records).
+pub const ESTIMATE_STORE_LEN: u32 = 0x2_0000;
 
 /// The TLV320ADC5140's I2C address (ADDR0 = ADDR1 = GND).
 const ADC_ADDRESS: u8 = 0x4C;
@@ -389,5 +400,6 @@ pub fn init() -> Board {
         },
         uart: FrameTx::new(uart, "USART2"),
         watchdog,
+        estimate_flash: Some(Flash::new_blocking(p.FLASH)),
     }
 }

@@ -7,6 +7,7 @@
 //! | frame writer      | CMSDK APB UART0 (0x4000_4000; QEMU `-serial`), paced at 115 200 baud     |
 //! | watchdog          | CMSDK APB watchdog (0x4000_8000, WDOGCLK = 25 MHz), reset enabled        |
 //! | time              | SysTick (processor clock) as the `embassy-time` driver, 100 µs ticks     |
+//! | estimate store    | a 16 KB host file with NOR flash's rules (optional third argument)       |
 //!
 //! The executor is embassy's, run by [`run_executor`], whose idle loop sleeps with `WFI`: QEMU
 //! treats `WFE` (what embassy's thread-mode executor uses) as a no-op, so that loop would spin.
@@ -20,7 +21,10 @@
 //! the host's load, so every run of the same image on the same WAV gives the same stream.
 //!
 //! The WAV path is the semihosting command line after the program name
-//! (`-semihosting-config enable=on,target=native,arg=firmware-mps2,arg=PATH`; no spaces in PATH).
+//! (`-semihosting-config enable=on,target=native,arg=firmware-mps2,arg=PATH`; no spaces in PATH);
+//! a further `arg=STORE` names the estimate store's file (created erased if missing; a file of
+//! another length is refused), which then keeps the self-calibration's estimate from run to run as
+//! flash keeps it on the STM32 boards.
 //! Faults are selected by the word at [`FAULT_ADDR`] and reported on QEMU's stdout
 //! ([`cma_firmware::emulated`]).
 #![allow(unsafe_code)] // MMIO registers and semihosting calls, each with a `Note(unsafe)`
@@ -36,6 +40,9 @@ use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_executor::{raw, Spawner};
 use embassy_time::{Duration, Instant, Timer};
+use embedded_storage::nor_flash::{
+    ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+};
 use static_cell::StaticCell;
 
 /// Input sample rate, Hz (the WAV must have it).
@@ -192,6 +199,30 @@ mod host {
         (fd != usize::MAX).then_some(fd)
     }
 
+    /// Opens `path` (NUL-terminated) for binary reading and writing, creating it (empty) when
+    /// `create` is set.
+    pub fn open_rw(path: &[u8], create: bool) -> Option<usize> {
+        let mode = if create {
+            nr::open::RW_TRUNC_BINARY
+        } else {
+            nr::open::RW_BINARY
+        };
+        // Note(unsafe): as in `open`.
+        let fd = unsafe { syscall!(OPEN, path.as_ptr(), mode, path.len() - 1) };
+        (fd != usize::MAX).then_some(fd)
+    }
+
+    /// Writes `buf` at offset `at`; whether all of it was written.
+    pub fn write_at(fd: usize, at: usize, buf: &[u8]) -> bool {
+        // Note(unsafe): SYS_SEEK only moves the host's file position.
+        if unsafe { syscall!(SEEK, fd, at) } != 0 {
+            return false;
+        }
+        // Note(unsafe): SYS_WRITE reads `buf.len()` bytes of `buf` and returns how many it did not
+        // write.
+        (unsafe { syscall!(WRITE, fd, buf.as_ptr(), buf.len()) }) == 0
+    }
+
     /// The length of an open file, bytes.
     pub fn len(fd: usize) -> Option<usize> {
         // Note(unsafe): SYS_FLEN only reads its argument.
@@ -321,6 +352,131 @@ fn remember_resume_frame(frame: u64) {
 fn fault_word() -> u32 {
     // Note(unsafe): FAULT_ADDR is RAM outside every linked section (memory-mps2.x).
     unsafe { core::ptr::read_volatile(FAULT_ADDR as *const u32) }
+}
+
+/// Offset of the estimate store in [`EstimateFlash`].
+pub const ESTIMATE_STORE_OFFSET: u32 = 0;
+/// Bytes of the emulated estimate store (113 records; one erase unit).
+pub const ESTIMATE_STORE_LEN: u32 = 16 * 1024;
+
+/// The estimate store's flash: a host file of [`ESTIMATE_STORE_LEN`] bytes named by the third
+/// semihosting argument, with NOR flash's rules (a write can only clear bits; an erase sets the
+/// whole file to `0xFF`). A new file starts erased.
+pub struct EstimateFlash {
+    fd: usize,
+}
+
+/// A semihosting read or write of the store file failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub struct HostIoError;
+
+impl NorFlashError for HostIoError {
+    fn kind(&self) -> NorFlashErrorKind {
+        NorFlashErrorKind::Other
+    }
+}
+
+impl ErrorType for EstimateFlash {
+    type Error = HostIoError;
+}
+
+impl ReadNorFlash for EstimateFlash {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), HostIoError> {
+        check_range(offset, bytes.len())?;
+        if host::read_at(self.fd, offset as usize, bytes) == bytes.len() {
+            Ok(())
+        } else {
+            Err(HostIoError)
+        }
+    }
+
+    fn capacity(&self) -> usize {
+        ESTIMATE_STORE_LEN as usize
+    }
+}
+
+/// Whether `len` bytes from `offset` lie in the store.
+fn check_range(offset: u32, len: usize) -> Result<(), HostIoError> {
+    if offset as usize + len <= ESTIMATE_STORE_LEN as usize {
+        Ok(())
+    } else {
+        Err(HostIoError)
+    }
+}
+
+impl NorFlash for EstimateFlash {
+    const WRITE_SIZE: usize = 16;
+    const ERASE_SIZE: usize = ESTIMATE_STORE_LEN as usize;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), HostIoError> {
+        if from != 0 || to != ESTIMATE_STORE_LEN {
+            return Err(HostIoError);
+        }
+        let ones = [0xFFu8; 256];
+        for at in (0..ESTIMATE_STORE_LEN as usize).step_by(ones.len()) {
+            if !host::write_at(self.fd, at, &ones) {
+                return Err(HostIoError);
+            }
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), HostIoError> {
+        check_range(offset, bytes.len())?;
+        if !(offset as usize).is_multiple_of(Self::WRITE_SIZE)
+            || !bytes.len().is_multiple_of(Self::WRITE_SIZE)
+        {
+            return Err(HostIoError);
+        }
+        for (i, new) in bytes.chunks_exact(Self::WRITE_SIZE).enumerate() {
+            let at = offset as usize + i * Self::WRITE_SIZE;
+            let mut cell = [0u8; Self::WRITE_SIZE];
+            if host::read_at(self.fd, at, &mut cell) != cell.len() {
+                return Err(HostIoError);
+            }
+            for (c, n) in cell.iter_mut().zip(new) {
+                *c &= *n;
+            }
+            if !host::write_at(self.fd, at, &cell) {
+                return Err(HostIoError);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Opens (or creates, erased) the store file named `arg`; a file of another length is refused so
+/// that a mistyped path is never overwritten. Not inlined: its buffers stay off the boot path's
+/// stack frame.
+#[inline(never)]
+fn open_estimate_flash(arg: &[u8]) -> EstimateFlash {
+    let mut buf = [0u8; 256];
+    let n = arg.len().min(buf.len() - 1);
+    buf[..n].copy_from_slice(&arg[..n]);
+    let path = &buf[..n + 1];
+    if let Some(fd) = host::open_rw(path, false) {
+        match host::len(fd) {
+            Some(n) if n == ESTIMATE_STORE_LEN as usize => return EstimateFlash { fd },
+            n => {
+                hprintln!(
+                    "mps2: error: the estimate store file has {:?} bytes, not {}: not a store image",
+                    n,
+                    ESTIMATE_STORE_LEN
+                );
+                fail("unsuitable estimate store file")
+            }
+        }
+    }
+    let Some(fd) = host::open_rw(path, true) else {
+        fail("cannot create the estimate store file")
+    };
+    let mut flash = EstimateFlash { fd };
+    if flash.erase(0, ESTIMATE_STORE_LEN).is_err() {
+        fail("cannot write the estimate store file")
+    }
+    flash
 }
 
 /// The four capsules: blocks of the WAV file, released at the sample clock's pace.
@@ -559,6 +715,8 @@ pub struct Board {
     pub uart: FrameTx,
     /// The watchdog (not yet started).
     pub watchdog: Watchdog,
+    /// The estimate store's file, when the command line names one.
+    pub estimate_flash: Option<EstimateFlash>,
 }
 
 /// Starts the clock, the UART and the capture (opens and checks the WAV named on the semihosting
@@ -583,15 +741,21 @@ pub fn init() -> Board {
     let Some(line) = host::command_line(&mut cmdline[..255]) else {
         fail("no semihosting command line (QEMU -semihosting-config ...,arg=firmware-mps2,arg=WAV)")
     };
-    let Some(space) = line.iter().position(|&c| c == b' ') else {
+    let line_len = line.len();
+    // Arguments: the program name, the WAV, optionally the estimate store file.
+    let mut args = cmdline[..line_len]
+        .split(|&c| c == b' ')
+        .filter(|a| !a.is_empty())
+        .skip(1);
+    let mut path = [0u8; 256];
+    let Some(wav_arg) = args.next() else {
         fail("no WAV path on the semihosting command line")
     };
-    let (start, end) = (space + 1, line.len());
-    let mut path = [0u8; 256];
-    path[..end - start].copy_from_slice(&cmdline[start..end]);
-    let Some(fd) = host::open(&path[..end - start + 1]) else {
+    path[..wav_arg.len()].copy_from_slice(wav_arg);
+    let Some(fd) = host::open(&path[..wav_arg.len() + 1]) else {
         fail("cannot open the WAV file")
     };
+    let estimate_flash = args.next().map(open_estimate_flash);
     let mut head = [0u8; HEADER_BYTES];
     let got = host::read_at(fd, 0, &mut head);
     let format = match wav::parse_header(&head[..got]) {
@@ -643,5 +807,6 @@ pub fn init() -> Board {
             wire_free: Instant::from_ticks(0),
         },
         watchdog: Watchdog,
+        estimate_flash,
     }
 }

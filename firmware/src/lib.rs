@@ -12,6 +12,8 @@
 //! * [`embedded_config`] — the localizer configuration, embedded at build time (`CMA_CONFIG=path`).
 //! * [`stored_capsules`] — the capsule estimate the self-calibration starts from, embedded at build
 //!   time (`CMA_SELFCAL=path`);
+//! * [`estimate_store`] — the self-calibration's estimate kept in flash across power cycles (an
+//!   append-only log of records) and when to save it;
 //! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
 //!
 //! The embassy application (`src/app.rs`) and the boards (`src/board.rs` for the STM32F411CE,
@@ -27,6 +29,7 @@ extern crate std;
 pub mod board_api;
 pub mod embedded_config;
 pub mod emulated;
+pub mod estimate_store;
 pub mod i2s_align;
 pub mod sample;
 pub mod stats;

@@ -23,6 +23,7 @@
 //! Every external process runs under `timeout`. Without `qemu-system-arm` or `socat` the test is
 //! skipped with a message, except when `CI` is set: then it fails.
 
+use cma_core::capsule_estimate_record::{self, Record, RECORD_LEN};
 use cma_firmware::emulated::{Fault, FAULT_ADDR};
 use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
@@ -267,6 +268,11 @@ fn record(dir: &Path, name: &str, writer: impl FnOnce(&Path) -> Command) -> Reco
 
 /// `host-sim emit WAV` through the pty pair: the reference recording.
 fn reference(dir: &Path, name: &str, wav: &Path) -> Recording {
+    reference_from(dir, name, wav, None)
+}
+
+/// `host-sim emit WAV [--selfcal-in START]` through the pty pair.
+fn reference_from(dir: &Path, name: &str, wav: &Path, start: Option<&Path>) -> Recording {
     record(dir, name, |port| {
         let mut c = Command::new("timeout");
         c.arg(QEMU_TIMEOUT_S)
@@ -275,13 +281,30 @@ fn reference(dir: &Path, name: &str, wav: &Path) -> Recording {
             .arg(wav)
             .arg("--port")
             .arg(port);
+        if let Some(start) = start {
+            c.arg("--selfcal-in").arg(start);
+        }
         c
     })
 }
 
 /// The firmware on QEMU with `fault` through the pty pair.
 fn firmware(dir: &Path, name: &str, wav: &Path, fault: Fault) -> Recording {
-    record(dir, name, |port| {
+    record(dir, name, |port| on_port(qemu(wav, fault, None), port))
+}
+
+/// `qemu` with its UART on `port`.
+fn on_port(mut c: Command, port: &Path) -> Command {
+    c.arg("-chardev")
+        .arg(format!("serial,id=uart0,path={}", port.display()))
+        .args(["-serial", "chardev:uart0"]);
+    c
+}
+
+/// The QEMU command of the emulated board on `wav` with `fault` and, with `store`, that file as its
+/// estimate store (its UART still to be given).
+fn qemu(wav: &Path, fault: Fault, store: Option<&Path>) -> Command {
+    {
         let mut c = Command::new("timeout");
         c.arg(QEMU_TIMEOUT_S)
             .args([
@@ -299,12 +322,11 @@ fn firmware(dir: &Path, name: &str, wav: &Path, fault: Fault) -> Recording {
                 "-monitor",
                 "none",
             ])
-            .arg("-chardev")
-            .arg(format!("serial,id=uart0,path={}", port.display()))
-            .args(["-serial", "chardev:uart0", "-semihosting-config"])
+            .arg("-semihosting-config")
             .arg(format!(
-                "enable=on,target=native,arg=firmware-mps2,arg={}",
-                wav.display()
+                "enable=on,target=native,arg=firmware-mps2,arg={}{}",
+                wav.display(),
+                store.map_or(String::new(), |p| format!(",arg={}", p.display()))
             ))
             .arg("-kernel")
             .arg(firmware_elf())
@@ -314,7 +336,7 @@ fn firmware(dir: &Path, name: &str, wav: &Path, fault: Fault) -> Recording {
                 fault.word()
             ));
         c
-    })
+    }
 }
 
 /// The scene's samples (16-bit, 4 channels) and spec.
@@ -377,8 +399,9 @@ fn counters(frames: &[PlainFrame], key: &str) -> Vec<u64> {
     frames.iter().map(|f| f.num(key)).collect()
 }
 
-#[test]
-fn emulated_firmware_matches_the_host_and_survives_faults() {
+/// Whether QEMU and socat are here (without them the tests are skipped, except under `CI`) and,
+/// if so, builds `firmware-mps2`.
+fn emulator_ready() -> bool {
     for (tool, arg) in [("qemu-system-arm", "--version"), ("socat", "-V")] {
         if !have(tool, arg) {
             assert!(
@@ -386,7 +409,7 @@ fn emulated_firmware_matches_the_host_and_survives_faults() {
                 "CI is set but {tool} is not installed"
             );
             eprintln!("SKIPPED: {tool} not found (scripts/setup.sh installs it)");
-            return;
+            return false;
         }
     }
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -400,12 +423,15 @@ fn emulated_firmware_matches_the_host_and_survives_faults() {
         status.success(),
         "building firmware-mps2 for {TARGET} failed"
     );
+    true
+}
 
-    let dir = tempfile::tempdir().expect("temporary directory");
-    let dir = dir.path();
-    let wav = dir.join("scene.wav");
+/// Makes `dir/name` with `host-sim scene` (16 kHz) and `args`.
+fn scene(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let wav = dir.join(name);
     let st = Command::new(BIN)
-        .args(["scene", "--synth", "6", "--azimuth", "40", "--snr", "10"])
+        .arg("scene")
+        .args(args)
         .args(["--rate", "16000", "--out"])
         .arg(&wav)
         .output()
@@ -414,6 +440,21 @@ fn emulated_firmware_matches_the_host_and_survives_faults() {
         st.status.success(),
         "{}",
         String::from_utf8_lossy(&st.stderr)
+    );
+    wav
+}
+
+#[test]
+fn emulated_firmware_matches_the_host_and_survives_faults() {
+    if !emulator_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let dir = dir.path();
+    let wav = scene(
+        dir,
+        "scene.wav",
+        &["--synth", "6", "--azimuth", "40", "--snr", "10"],
     );
     let (spec, samples) = read_samples(&wav);
     let n = samples.len() as u64 / 4;
@@ -574,4 +615,137 @@ fn emulated_firmware_matches_the_host_and_survives_faults() {
     assert_eq!(calibration_starts, 2, "a calibration line at each boot");
     assert!(counters(&hang.frames(), "ovr").iter().all(|&o| o == 0));
     assert!(counters(&hang.frames(), "drop").iter().all(|&d| d == 0));
+}
+
+/// Asserts `got == want`, naming the first line that differs.
+fn assert_same(got: &[String], want: &[String], what: &str) {
+    if let Some(i) = (0..got.len().max(want.len())).find(|&i| got.get(i) != want.get(i)) {
+        panic!(
+            "{what}: line {i} of {}/{} differs:\n got  {:?}\n want {:?}",
+            got.len(),
+            want.len(),
+            got.get(i),
+            want.get(i)
+        );
+    }
+}
+
+/// The valid records of an estimate store image, in slot order.
+fn records(store: &Path) -> Vec<Record> {
+    std::fs::read(store)
+        .expect("read the store")
+        .chunks_exact(RECORD_LEN)
+        .filter_map(|slot| capsule_estimate_record::decode(slot.try_into().ok()?).ok())
+        .collect()
+}
+
+#[test]
+fn emulated_firmware_keeps_its_estimate_across_power_cycles() {
+    if !emulator_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let dir = dir.path();
+    // An imperfect array, so that the self-calibration has something to learn; 12 s: one save, at
+    // the calibration snapshot at 10 s.
+    let wav = scene(
+        dir,
+        "imperfect.wav",
+        &[
+            "--synth",
+            "12",
+            "--track",
+            "0:30,4:150,8:-90",
+            "--snr",
+            "3",
+            "--seed",
+            "4",
+            "--capsule-gain-db",
+            "1,-1,0.5",
+            "--capsule-beta",
+            "0.45,0.57,0.5",
+        ],
+    );
+    let store = dir.join("board.store");
+
+    // First power-up, no store yet: the file is made, the stream is exactly the host's (saving
+    // changes nothing in it), and the snapshot at 10 s is saved exactly.
+    let cold = record(dir, "cold", |port| {
+        on_port(qemu(&wav, Fault::None, Some(&store)), port)
+    });
+    let cold_reference = reference(dir, "cold-reference", &wav);
+    assert_same(
+        &cold.plain,
+        &cold_reference.plain,
+        "cold start: plain lines",
+    );
+    assert_eq!(cold.csv, cold_reference.csv, "cold start: recorded CSV");
+    assert_eq!(
+        std::fs::metadata(&store).expect("store made").len(),
+        16 * 1024
+    );
+    let saved = records(&store);
+    assert_eq!(saved.len(), 1, "one record after 12 s");
+    assert_eq!(saved[0].sequence, 0);
+    let snapshot = cold
+        .plain
+        .iter()
+        .find(|l| l.starts_with("selfcal seq=1 t=160000 "))
+        .expect("the calibration line at 10 s");
+    let band0 = snapshot
+        .split_whitespace()
+        .find_map(|kv| kv.strip_prefix("band0=n:"))
+        .expect("band0 field");
+    let printed: Vec<f32> = band0
+        .split([',', '/'])
+        .map(|v| v.trim_start_matches("a:").trim_start_matches("b:"))
+        .map(|v| v.parse().expect("a number"))
+        .collect();
+    let b = &saved[0].estimate.bands[0];
+    let stored: Vec<f32> = std::iter::once(b.peaks)
+        .chain(b.omni_part)
+        .chain(b.dipole_part)
+        .collect();
+    assert_eq!(printed.len(), stored.len(), "{band0}");
+    assert!(
+        (printed[0] - stored[0]).abs() <= 0.5,
+        "{band0} vs {stored:?}"
+    );
+    for (p, s) in printed[1..].iter().zip(&stored[1..]) {
+        assert!((p - s).abs() <= 5e-5, "{band0} vs {stored:?}");
+    }
+    assert!(b.omni_part[0] > 0.55, "learned, not ideal: {b:?}");
+
+    // Second power-up: the board starts from the stored record, exactly as the host does from the
+    // same store image (`--selfcal-in`), and appends the next record.
+    let after_cold = dir.join("after-cold.store");
+    std::fs::copy(&store, &after_cold).expect("copy the store");
+    let warm = record(dir, "warm", |port| {
+        on_port(qemu(&wav, Fault::None, Some(&store)), port)
+    });
+    let warm_reference = reference_from(dir, "warm-reference", &wav, Some(&after_cold));
+    assert_same(
+        &warm.plain,
+        &warm_reference.plain,
+        "warm start: plain lines",
+    );
+    assert_eq!(warm.csv, warm_reference.csv, "warm start: recorded CSV");
+    assert_ne!(
+        warm.plain[0], cold.plain[0],
+        "the warm start is not the cold one"
+    );
+    let saved = records(&store);
+    assert_eq!(saved.iter().map(|r| r.sequence).collect::<Vec<_>>(), [0, 1]);
+
+    // A store path that names something else (here the WAV) is refused and left alone.
+    let before = std::fs::read(&wav).expect("read the scene");
+    let out = qemu(&wav, Fault::None, Some(&wav))
+        .args(["-serial", "null"])
+        .stdin(Stdio::null())
+        .output()
+        .expect("run QEMU");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!out.status.success(), "{stdout}");
+    assert!(stdout.contains("not a store image"), "{stdout}");
+    assert_eq!(std::fs::read(&wav).expect("read the scene"), before);
 }

@@ -66,7 +66,8 @@ pub struct CalibrateArgs {
     /// Also draw the table (features vs azimuth per capsule at four frequencies) into this PNG.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Compute the table from a self-calibration estimate (a `locate --selfcal-out` file) instead
+    /// Compute the table from a self-calibration estimate (a `locate --selfcal-out` file, or an
+    /// image of a board's estimate store) instead
     /// of measuring it from sweeps: each frequency row (--freq-lo/--freq-hi/--freq-step) takes the
     /// capsule model of its band, on the azimuth grid of --grid, with the noise rows of a 3-D
     /// diffuse field. Not with --rec/--dir or the sweep's flags.

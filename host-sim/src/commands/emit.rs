@@ -8,7 +8,6 @@
 
 use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
-use crate::locate::BLOCK;
 use crate::selfcal_file;
 use crate::serial_link::{self, DEFAULT_BAUD};
 use crate::wav_io::{self, InputLayout};
@@ -38,8 +37,9 @@ pub struct EmitArgs {
     /// Channel layout of the input.
     #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
     pub input_layout: InputLayout,
-    /// Start the self-calibration from this saved estimate (written by `locate --selfcal-out`), as
-    /// a board built with `CMA_SELFCAL` does.
+    /// Start the self-calibration from this saved estimate (written by `locate --selfcal-out`, or
+    /// an image of a board's estimate store), as a board built with `CMA_SELFCAL`, or booting with
+    /// that store, does.
     #[arg(long)]
     pub selfcal_in: Option<PathBuf>,
     /// Localizer configuration.
@@ -47,11 +47,16 @@ pub struct EmitArgs {
     pub config: ConfigArgs,
 }
 
+/// Sample frames per block, as on the boards: a block completes at most one analysis hop, so a
+/// calibration line follows the frame line that made it due, as the board sends it (the estimates
+/// do not depend on the block size).
+pub const BOARD_BLOCK: usize = 32;
+
 /// Give up when the port accepted nothing for this long (nobody reading, flow stopped).
 const WRITE_STALL: Duration = Duration::from_secs(10);
 
-/// The lines `emit` sends for a WAV, in order: frame lines are `locate`'s estimates (the same
-/// blocks of [`BLOCK`] sample frames) through [`Frame::from_estimate`] with `seq` = row index
+/// The lines `emit` sends for a WAV, in order: frame lines are `locate`'s estimates (in blocks of
+/// [`BOARD_BLOCK`] sample frames) through [`Frame::from_estimate`] with `seq` = row index
 /// (wrapping), the WAV's rate, 0 overruns, 0 drops; calibration lines as the firmware sends them
 /// (at start, then every [`wire::CALIBRATION_PERIOD_S`] s after the frame line that made one due;
 /// their own `seq` from 0, 0 drops). Returns them with the rate.
@@ -109,7 +114,7 @@ pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
         }
         return Ok((rec.rate, out));
     }
-    for block in rec.frames.chunks(BLOCK) {
+    for block in rec.frames.chunks(BOARD_BLOCK) {
         let mut due = None;
         loc.process_block(block, |e| {
             out.push(Line::Frame(Frame::from_estimate(e, seq, rec.rate, 0, 0)));

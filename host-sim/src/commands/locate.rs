@@ -25,7 +25,8 @@ pub struct LocateArgs {
     /// Channel layout of the input.
     #[arg(long, value_enum, default_value_t = InputLayout::Cma1)]
     pub input_layout: InputLayout,
-    /// Start the self-calibration from this saved estimate (written by --selfcal-out).
+    /// Start the self-calibration from this saved estimate (written by --selfcal-out, or an image
+    /// of a board's estimate store: its newest record).
     #[arg(long)]
     pub selfcal_in: Option<PathBuf>,
     /// Write the self-calibration's final estimate here (to start the next run, or the board, from).

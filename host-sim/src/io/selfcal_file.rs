@@ -13,11 +13,13 @@
 //! (X_m = a_m·W + b_m·D_m; the ideal cardioid has a = b = 0.5; gain g = a + b, pattern β = b/g).
 //!
 //! The parser is the core's [`cma_core::capsule_estimate_file`], which the firmware's build script
-//! uses too (`CMA_SELFCAL=path`), so both read the file with the same rules.
+//! uses too (`CMA_SELFCAL=path`), so both read the file with the same rules. [`read()`] also takes
+//! an image of the firmware's estimate store ([`cma_core::capsule_estimate_record`]).
 
 use crate::error::{Result, SimError};
 use cma_core::capsule_calibration::{CapsuleEstimate, CAL_BAND_EDGES_HZ};
 use cma_core::capsule_estimate_file;
+use cma_core::capsule_estimate_record::{self, Record, RECORD_LEN};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -59,18 +61,42 @@ pub fn parse(text: &str, path: &Path) -> Result<CapsuleEstimate> {
     })
 }
 
-/// Reads a file written by [`write()`].
+/// Largest store image read, bytes (the STM32 boards' store is one 128 KB flash sector).
+const MAX_STORE_BYTES: u64 = 1 << 20;
+
+/// Reads a file written by [`write()`], or an image of the firmware's estimate store (a dump of
+/// its flash sector, or the emulated board's store file): then the newest valid record, exactly as
+/// the board saved it.
 pub fn read(path: &Path) -> Result<CapsuleEstimate> {
-    let meta = std::fs::metadata(path).map_err(|e| SimError::io(path, e))?;
-    if meta.is_file() && meta.len() > 64 * 1024 {
+    let bytes = crate::text_file::read_bytes(path, MAX_STORE_BYTES)?;
+    // A store image starts with a record or with erased flash (0xFF, never UTF-8 text).
+    if bytes.starts_with(&capsule_estimate_record::MAGIC) || bytes.first() == Some(&0xFF) {
+        return newest_record(&bytes, path).map(|r| r.estimate);
+    }
+    if bytes.len() > 64 * 1024 {
         return Err(SimError::Usage(format!(
             "{}: {} bytes is too large for a self-calibration file",
             path.display(),
-            meta.len()
+            bytes.len()
         )));
     }
-    let text = crate::text_file::read(path)?;
-    parse(&text, path)
+    parse(&crate::text_file::decode(bytes, path)?, path)
+}
+
+/// The newest valid record of a store image (any build's key: a dump does not say which build
+/// runs on the board, and the newest record is the running build's once it has saved one).
+pub fn newest_record(image: &[u8], path: &Path) -> Result<Record> {
+    image
+        .chunks_exact(RECORD_LEN)
+        .filter_map(|slot| capsule_estimate_record::decode(slot.try_into().ok()?).ok())
+        .max_by_key(|r| r.sequence)
+        .ok_or_else(|| {
+            SimError::Usage(format!(
+                "{}: an estimate store image without a valid record (the board has not saved \
+                 an estimate yet)",
+                path.display()
+            ))
+        })
 }
 
 /// Writes `est` to `path` (atomically for regular files).
@@ -118,6 +144,29 @@ pub fn summary(est: &CapsuleEstimate, confidence: f32) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_store_image_gives_its_newest_record_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("board.store");
+        let mut older = CapsuleEstimate::IDEAL;
+        older.bands[1].omni_part = [0.45, 0.52, 0.5];
+        let mut newer = older;
+        newer.bands[1].dipole_part = [0.123_456_79 + 0.4, 0.47, 0.51];
+        // Slot 0 the older record, slot 1 a torn one, slot 2 the newer, the rest erased.
+        let mut image = vec![0xFF; 16 * 1024];
+        image[..RECORD_LEN].copy_from_slice(&capsule_estimate_record::encode(&older, 4, 7));
+        image[RECORD_LEN..RECORD_LEN + 16]
+            .copy_from_slice(&capsule_estimate_record::encode(&newer, 6, 7)[..16]);
+        image[2 * RECORD_LEN..3 * RECORD_LEN]
+            .copy_from_slice(&capsule_estimate_record::encode(&newer, 5, 7));
+        std::fs::write(&p, &image).unwrap();
+        assert_eq!(read(&p).unwrap(), newer);
+        // An erased store says it has nothing yet.
+        std::fs::write(&p, vec![0xFF; 16 * 1024]).unwrap();
+        let e = read(&p).unwrap_err().to_string();
+        assert!(e.contains("without a valid record"), "{e}");
+    }
 
     #[test]
     fn round_trip_and_errors() {

@@ -13,18 +13,33 @@ const BOM: &str = "\u{feff}";
 
 /// Reads a UTF-8 text file of at most [`MAX_TEXT_BYTES`], without a leading byte-order mark.
 pub fn read(path: &Path) -> Result<String> {
+    decode(read_bytes(path, MAX_TEXT_BYTES)?, path)
+}
+
+/// Reads a file of at most `max` bytes once (a pipe works); larger files are an error.
+pub fn read_bytes(path: &Path, max: u64) -> Result<Vec<u8>> {
     let file = std::fs::File::open(path).map_err(|e| SimError::io(path, e))?;
     let mut bytes = Vec::new();
-    file.take(MAX_TEXT_BYTES + 1)
+    file.take(max + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| SimError::io(path, e))?;
-    if bytes.len() as u64 > MAX_TEXT_BYTES {
+    if bytes.len() as u64 > max {
         return Err(SimError::Other(format!(
-            "{}: larger than {} MiB, not a text file this tool reads",
+            "{}: larger than {}, not a file this tool reads here",
             path.display(),
-            MAX_TEXT_BYTES >> 20
+            if max >= 1 << 20 {
+                format!("{} MiB", max >> 20)
+            } else {
+                format!("{} KiB", max >> 10)
+            }
         )));
     }
+    Ok(bytes)
+}
+
+/// The UTF-8 text of `bytes` (read from `path`, which errors name), without a leading byte-order
+/// mark.
+pub fn decode(bytes: Vec<u8>, path: &Path) -> Result<String> {
     let text = String::from_utf8(bytes).map_err(|e| {
         let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()]
             .iter()
