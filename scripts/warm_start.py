@@ -12,9 +12,7 @@ and `host-sim locate --selfcal-in` starts the short scene from it, as the firmwa
 estimate store. Every short scene is localized with the default settings both ways and scored with
 `host-sim score` on the window of its manifest line (the window `host-sim eval` scores); the table
 pools the scored frames. The ideal twins (ideal/shortNNN, earlier session through the ideal array)
-show that a stored estimate costs an ideal array nothing. The drift/dirnoiseNN scenes (a directional
-noise source from the first sample on) show what a stored estimate does where a cold start cannot
-tell that source from a capsule error.
+show that a stored estimate costs an ideal array nothing.
 
 Needs Python 3 and a release build of host-sim (env HS; default target/release/host-sim). Not part
 of the test suite. Takes a few minutes per validation folder.
@@ -90,10 +88,8 @@ def main():
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "warm-start.md"))
     args = ap.parse_args()
 
-    # (row label, folder, manifest set): short scenes of both arrays, and the imperfect array with a
-    # directional noise source from the first sample on.
-    kinds = [("short, imperfect", "imperfect", "short"), ("short, ideal", "ideal", "short"),
-             ("directional noise from power-on, imperfect", "drift", "drift_dirnoise")]
+    # (row label, folder, manifest set).
+    kinds = [("short, imperfect", "imperfect", "short"), ("short, ideal", "ideal", "short")]
     jobs = []
     for d in args.dirs:
         for label, sub, wanted in kinds:
@@ -131,10 +127,7 @@ def main():
         "Per scene, the earlier session is 60 s of a synthetic talker jumping between six places, with",
         "diffuse noise at 6 dB, through the same capsules (no room); its saved estimate starts the",
         "short scene. Default settings; frames pooled over the scenes, each scored on its manifest",
-        "window (`host-sim score`, the window `host-sim eval` scores). The last rows are the 60 s",
-        "scenes of a static talker with a pink-noise source elsewhere in the room from the first sample",
-        "on (0 dB on the omni, diffuse noise at 20 dB), which a cold self-calibration cannot tell from",
-        "a capsule error.",
+        "window (`host-sim score`, the window `host-sim eval` scores).",
         "",
         "| scenes | start | count | frames | ACC10 | MAE |",
         "|---|---|---:|---:|---:|---:|",
