@@ -262,11 +262,13 @@ async fn dsp_task(
 }
 
 /// Blocks between a calibration snapshot (at the end of an analysis hop) and the save of its
-/// estimate: half-way to the next hop (8 blocks of 32 sample frames), when the capture ring holds
-/// no late block and the estimate is still the snapshot's.
-const SAVE_DELAY_BLOCKS: u8 = 4;
+/// estimate: half-way to the next hop (at 16 kHz the core's analysis runs on the input samples, so
+/// a hop is [`cma_core::HOP`] sample frames, 8 blocks), when the capture ring holds no late block
+/// and the estimate is still the snapshot's.
+const SAVE_DELAY_BLOCKS: u8 = (cma_core::HOP / BLOCK_FRAMES / 2) as u8;
 
-const _: () = assert!((SAVE_DELAY_BLOCKS as usize + 1) * BLOCK_FRAMES < 256);
+// The save happens before the next hop.
+const _: () = assert!((SAVE_DELAY_BLOCKS as usize + 1) * BLOCK_FRAMES < cma_core::HOP);
 
 /// Whether the snapshot at `centre_sample` is to be saved ([`SavePolicy::due`]). Not inlined, like
 /// [`save_estimate`].

@@ -5,10 +5,13 @@
 //!   120°, 240°; full scale ±1), or an [`Overrun`] when samples were lost;
 //! * a [`FrameWriter`]: the byte stream of frame and calibration lines (a UART);
 //! * a [`Watchdog`] that resets the board when the DSP task no longer pets it;
+//! * optionally a flash for the estimate store (`board::EstimateFlash`, an
+//!   [`embedded_storage::nor_flash::NorFlash`], with `ESTIMATE_STORE_OFFSET` and
+//!   `ESTIMATE_STORE_LEN`; see [`crate::estimate_store`]);
 //! * time: an `embassy-time` driver (the application's defmt timestamps).
 //!
 //! The application (`src/app.rs`) uses only these traits and the board module's constants
-//! (`SAMPLE_RATE_HZ`, `BLOCK_FRAMES`) and `init`; embassy tasks cannot be generic, so each binary
+//! (`SAMPLE_RATE_HZ`, `BLOCK_FRAMES`, the estimate store's place) and `init`; embassy tasks cannot be generic, so each binary
 //! names its board's concrete types (`src/board.rs` for the STM32F411CE, `src/board_mps2.rs` for the
 //! emulated board).
 
