@@ -23,12 +23,13 @@
 //! The WAV path is the semihosting command line after the program name
 //! (`-semihosting-config enable=on,target=native,arg=firmware-mps2,arg=PATH`; no spaces in PATH);
 //! a further `arg=STORE` names the estimate store's file (created erased if missing; a file of
-//! another length is refused), which then keeps the self-calibration's estimate from run to run as
+//! another length or with other content is refused), which then keeps the self-calibration's estimate from run to run as
 //! flash keeps it on the STM32 boards.
 //! Faults are selected by the word at [`FAULT_ADDR`] and reported on QEMU's stdout
 //! ([`cma_firmware::emulated`]).
 #![allow(unsafe_code)] // MMIO registers and semihosting calls, each with a `Note(unsafe)`
 
+use cma_core::capsule_estimate_record::{MAGIC, RECORD_LEN};
 use cma_core::CHANNELS;
 use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
 use cma_firmware::emulated::{
@@ -447,8 +448,8 @@ impl NorFlash for EstimateFlash {
     }
 }
 
-/// Opens (or creates, erased) the store file named `arg`; a file of another length is refused so
-/// that a mistyped path is never overwritten. Not inlined: its buffers stay off the boot path's
+/// Opens (or creates, erased) the store file named `arg`; a file of another length, or one holding
+/// anything but records and erased bytes, is refused so that a mistyped path is never overwritten. Not inlined: its buffers stay off the boot path's
 /// stack frame.
 #[inline(never)]
 fn open_estimate_flash(arg: &[u8]) -> EstimateFlash {
@@ -458,7 +459,12 @@ fn open_estimate_flash(arg: &[u8]) -> EstimateFlash {
     let path = &buf[..n + 1];
     if let Some(fd) = host::open_rw(path, false) {
         match host::len(fd) {
-            Some(n) if n == ESTIMATE_STORE_LEN as usize => return EstimateFlash { fd },
+            Some(n) if n == ESTIMATE_STORE_LEN as usize => {
+                if !holds_only_records(fd) {
+                    fail("the estimate store file holds something other than records: not a store image")
+                }
+                return EstimateFlash { fd };
+            }
             n => {
                 hprintln!(
                     "mps2: error: the estimate store file has {:?} bytes, not {}: not a store image",
@@ -477,6 +483,20 @@ fn open_estimate_flash(arg: &[u8]) -> EstimateFlash {
         fail("cannot write the estimate store file")
     }
     flash
+}
+
+/// Whether every slot of the open store file is erased or starts with a record's magic (a record,
+/// or one whose write was cut short) and the bytes after the last slot are erased: what only the
+/// estimate store writes.
+fn holds_only_records(fd: usize) -> bool {
+    let mut slot = [0u8; RECORD_LEN];
+    let slots = ESTIMATE_STORE_LEN as usize / RECORD_LEN;
+    let tail = ESTIMATE_STORE_LEN as usize % RECORD_LEN;
+    (0..slots).all(|i| {
+        host::read_at(fd, i * RECORD_LEN, &mut slot) == RECORD_LEN
+            && (slot.starts_with(&MAGIC) || slot.iter().all(|&b| b == 0xFF))
+    }) && host::read_at(fd, slots * RECORD_LEN, &mut slot[..tail]) == tail
+        && slot[..tail].iter().all(|&b| b == 0xFF)
 }
 
 /// The four capsules: blocks of the WAV file, released at the sample clock's pace.

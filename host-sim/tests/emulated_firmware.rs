@@ -737,15 +737,21 @@ fn emulated_firmware_keeps_its_estimate_across_power_cycles() {
     let saved = records(&store);
     assert_eq!(saved.iter().map(|r| r.sequence).collect::<Vec<_>>(), [0, 1]);
 
-    // A store path that names something else (here the WAV) is refused and left alone.
+    // A store path that names something else is refused and left alone: the WAV (another length),
+    // and 16 KB of it (the store's length, other content).
     let before = std::fs::read(&wav).expect("read the scene");
-    let out = qemu(&wav, Fault::None, Some(&wav))
-        .args(["-serial", "null"])
-        .stdin(Stdio::null())
-        .output()
-        .expect("run QEMU");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(!out.status.success(), "{stdout}");
-    assert!(stdout.contains("not a store image"), "{stdout}");
-    assert_eq!(std::fs::read(&wav).expect("read the scene"), before);
+    let look_alike = dir.join("look-alike.store");
+    std::fs::write(&look_alike, &before[..16 * 1024]).expect("write the look-alike");
+    for other in [&wav, &look_alike] {
+        let before = std::fs::read(other).expect("read the file");
+        let out = qemu(&wav, Fault::None, Some(other))
+            .args(["-serial", "null"])
+            .stdin(Stdio::null())
+            .output()
+            .expect("run QEMU");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(!out.status.success(), "{stdout}");
+        assert!(stdout.contains("not a store image"), "{stdout}");
+        assert_eq!(std::fs::read(other).expect("read the file"), before);
+    }
 }
