@@ -10,8 +10,8 @@
 //! * **Running** ([`SavePolicy`]): at a calibration snapshot, an estimate that is confident enough
 //!   and differs from the last one saved is written ([`EstimateStore::save`]) at most once a
 //!   [`SAVE_PERIOD_S`]. The application writes it half-way between two analysis hops, when the
-//!   capture ring is empty: programming 36 flash words stalls the CPU for 0.6 ms (3.6 ms at the
-//!   STM32F4's worst word time), and the ring holds 8 ms. A full log stops saving until the next
+//!   capture ring is empty: programming 36 flash words stalls the CPU for about 0.6 ms (3.6 ms at
+//!   the STM32F4's worst word time), and the ring holds 8 ms. A full log stops saving until the next
 //!   boot compacts it.
 //!
 //! A power cut at any moment loses at most the record being written: the previous one stays valid.
@@ -27,7 +27,7 @@ pub const SAVE_CONFIDENCE: f32 = 0.2;
 
 /// Shortest time between two saves, s (the first save of a boot waits for no period): at one
 /// record a minute a 128 KB sector lasts 15 hours of changing estimates between erases, so its
-/// 10 000 erase cycles last decades.
+/// 10 000 erase cycles last 17 years of an estimate that never settles.
 pub const SAVE_PERIOD_S: u32 = 60;
 
 /// What [`EstimateStore::open`] found.
