@@ -69,6 +69,9 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         Some(path) => Some(selfcal_file::read(path)?),
         None => None,
     };
+    if let Some(path) = &a.selfcal_out {
+        selfcal_file::check_output(path)?;
+    }
     let mut sample_frames = 0usize;
     let located =
         locate::locate_stream_calibrated(&mut stream, config, table, start.as_ref(), |n| {

@@ -101,10 +101,34 @@ pub fn newest_record(image: &[u8], path: &Path) -> Result<Record> {
 
 /// Writes `est` to `path` (atomically for regular files).
 pub fn write(path: &Path, est: &CapsuleEstimate) -> Result<()> {
+    check_output(path)?;
     let text = format(est);
     crate::wav_io::write_atomically(path, |tmp| {
         std::fs::write(tmp, text.as_bytes()).map_err(|e| SimError::io(tmp, e))
     })
+}
+
+/// Refuses `path` as an output when it is an estimate store image (a dump of a board's flash),
+/// which the text estimate would replace; call it before the work that ends in [`write()`].
+pub fn check_output(path: &Path) -> Result<()> {
+    if is_store_image(path) {
+        return Err(SimError::Usage(format!(
+            "{}: an estimate store image (a dump of a board's flash); the text estimate would \
+             replace it: name another file",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Whether `path` is a regular file that starts as a store image does (a record's magic, or erased
+/// flash).
+fn is_store_image(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 4];
+    std::fs::metadata(path).is_ok_and(|m| m.is_file())
+        && std::fs::File::open(path).is_ok_and(|mut f| f.read_exact(&mut head).is_ok())
+        && (head == capsule_estimate_record::MAGIC || head[0] == 0xFF)
 }
 
 /// A few lines for the terminal: per band the gains (dB) and patterns β of the three cardioids.
@@ -162,6 +186,10 @@ mod tests {
             .copy_from_slice(&capsule_estimate_record::encode(&newer, 5, 7));
         std::fs::write(&p, &image).unwrap();
         assert_eq!(read(&p).unwrap(), newer);
+        // `--selfcal-out` does not turn it into a text file.
+        let e = write(&p, &newer).unwrap_err().to_string();
+        assert!(e.contains("store image"), "{e}");
+        assert_eq!(std::fs::read(&p).unwrap(), image);
         // An erased store says it has nothing yet.
         std::fs::write(&p, vec![0xFF; 16 * 1024]).unwrap();
         let e = read(&p).unwrap_err().to_string();
