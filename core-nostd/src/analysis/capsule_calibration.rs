@@ -19,19 +19,28 @@
 //! noise floor), per frequency band:
 //!
 //! * a_m = E[Re(X_m W*)] / E|W|² (the dipole part does not correlate with the omni);
-//! * R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n = κ·b_m·b_n·cos(φ_m − φ_n) = −½κ·b_m·b_n for m ≠ n,
-//!   so the ratios of the b_m follow from the three off-diagonal products alone — uncorrelated
-//!   capsule self-noise, which only adds to the diagonal, does not bias them. Their common scale
-//!   is not measurable from picked peaks (the peaks are where |W| stands out) and does not matter for the
-//!   direction: it is set so that Σb = Σa.
+//! * R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n = κ·b_m·b_n·cos(φ_m − φ_n): on the diagonal the
+//!   dipole powers R_mm = κ·b_m², off it −½κ·b_m·b_n. The b_m come from the diagonal: a power is
+//!   measured with about a seventh of the relative sampling variance of the ratio of three
+//!   cross-powers, so a cold start's few seconds of background already give usable patterns.
+//!   Their common scale is not measurable from picked peaks (the peaks are where |W| stands out)
+//!   and does not matter for the direction: it is set so that Σb = Σa.
 //!
-//! The diagonal checks the field: for an isotropic field every normalised R_mn / √(R_mm·R_nn) is
-//! −½ whatever the capsules, while a directional noise source (a fan, a loudspeaker) adds a rank-one
-//! part that moves them. When they stray by more than [`CapsuleCalibration::max_anisotropy`] the
-//! background is not diffuse, and the accepted estimate is kept as it was (no drift toward the noise
-//! source). Speech frames are never used, so a talker, static or moving, cannot pull the estimate.
-//! Only the ratios of b matter for the direction (a common factor is the same as a lower SNR, which
-//! the noisy references absorb), so an error in κ costs nothing.
+//! The talker's reverberation lingers in the background and is not diffuse: it comes mostly from
+//! the talker's side. In a frame with a tracked talker at θ it adds to the omni parts a deviation
+//! along cos(θ − φ_m) and to the dipole powers one along cos 2(θ − φ_m); each frame's deviations
+//! (zero-mean over the three cardioids, a point in a plane) are therefore learned only across that
+//! pattern, and talkers heard from several places fill in the rest (a ridge keeps what was never
+//! observed at the ideal capsule).
+//!
+//! The cross-powers check the field: for an isotropic field every normalised R_mn / √(R_mm·R_nn)
+//! is −½ whatever the capsules, while a directional noise source (a fan, a loudspeaker) adds a
+//! rank-one part and capsule self-noise a diagonal one that move them. When they stray by more than
+//! [`CapsuleCalibration::max_anisotropy`] the background is not diffuse, and the accepted estimate
+//! is kept as it was (no drift toward the noise source). Speech frames are never used, so a
+//! talker, static or moving, cannot pull the estimate. Only the ratios of b matter for the
+//! direction (a common factor is the same as a lower SNR, which the noisy references absorb), so an
+//! error in κ costs nothing.
 //!
 //! # Confidence
 //! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
@@ -41,7 +50,7 @@
 //! uncorrected, and a real imperfection is corrected more fully as the evidence grows. The
 //! reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
 //!
-//! State: per band 10 sums and a count (≈ 0.2 KB in all); [`CapsuleEstimate`] (the model and its
+//! State: per band 20 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
 //! the correction; on background frames ten cross-products per peak and one band's solution.
 
@@ -57,10 +66,11 @@ pub const CAL_BANDS: usize = 4;
 pub const CAL_BAND_EDGES_HZ: [f32; CAL_BANDS - 1] = [500.0, 1000.0, 2000.0];
 const _: () = assert!(CAL_BANDS == 4, "band_of_bin compares with three edges");
 
-/// How much more evidence the dipole parts' deviations need than the omni parts': the talker's
-/// reverberation in the background biases their cross-powers, and the omni parts' errors cost more
-/// accuracy (measured on the validation scenes, docs/self-calibration.md).
-const DIPOLE_EVIDENCE: f32 = 16.0;
+/// Evidence the dipole parts' deviations need relative to the omni parts': the dipole powers'
+/// sampling variance per peak (≈ b²/4 relative, against ≈ κb²/2 for an omni part) is about that
+/// of the omni parts, while an omni part's early error costs more accuracy than a dipole part's
+/// (measured on the validation scenes, docs/self-calibration.md).
+const DIPOLE_EVIDENCE: f32 = 0.4;
 
 /// Background peaks per band at which the confidence is ½.
 pub const CONFIDENT_PEAKS: f32 = 1000.0;
@@ -228,6 +238,9 @@ struct BandSums {
     /// Normal equations of the omni parts' deviation z (in the horizontal plane) with each
     /// frame's component along its talker's direction left out: Σ w·P (xx, xy, yy), Σ w·P·z_f.
     plane: [f32; 5],
+    /// The same for the deviation of the dipole powers R_mm = κ·b_m², with each frame's component
+    /// along the pattern its talker's reverberation gives them left out.
+    dipole_plane: [f32; 5],
 }
 
 /// sin 120° = √3/2.
@@ -247,6 +260,47 @@ fn from_plane(z: [f32; 2]) -> [f32; CARDIOIDS] {
     [z[0], -0.5 * z[0] + H * z[1], -0.5 * z[0] - H * z[1]]
 }
 
+/// `v` less its mean.
+fn zero_mean(v: [f32; CARDIOIDS]) -> [f32; CARDIOIDS] {
+    let mean = (v[0] + v[1] + v[2]) / 3.0;
+    v.map(|x| x - mean)
+}
+
+/// Adds plane coordinates `z` with weight `weight` to the normal equations `p` (Σ w·P as xx, xy,
+/// yy; Σ w·P·z): all of them, or with `across` only their component along that unit vector (P its
+/// projector).
+fn accumulate(p: &mut [f32; 5], z: [f32; 2], weight: f32, across: Option<(f32, f32)>) {
+    match across {
+        Some((nx, ny)) => {
+            let along = weight * (nx * z[0] + ny * z[1]);
+            p[0] += weight * nx * nx;
+            p[1] += weight * nx * ny;
+            p[2] += weight * ny * ny;
+            p[3] += along * nx;
+            p[4] += along * ny;
+        }
+        None => {
+            p[0] += weight;
+            p[2] += weight;
+            p[3] += weight * z[0];
+            p[4] += weight * z[1];
+        }
+    }
+}
+
+/// The zero-mean per-cardioid deviation that solves the normal equations `p` (with a ridge).
+fn plane_deviation(p: &[f32; 5]) -> Option<[f32; CARDIOIDS]> {
+    let [xx, xy, yy, rx, ry] = *p;
+    let ridge = PLANE_RIDGE * 0.5 * (xx + yy);
+    let (xx, yy) = (xx + ridge, yy + ridge);
+    let det = xx * yy - xy * xy;
+    if !(det > 0.0) || !det.is_finite() {
+        return None;
+    }
+    let z = [(yy * rx - xy * ry) / det, (xx * ry - xy * rx) / det];
+    Some(from_plane(z))
+}
+
 /// Ridge of the plane's normal equations, relative to their mean eigenvalue: a direction never
 /// observed stays at the ideal capsule.
 const PLANE_RIDGE: f32 = 0.02;
@@ -258,6 +312,7 @@ impl BandSums {
         xx: [0.0; 6],
         n: 0.0,
         plane: [0.0; 5],
+        dipole_plane: [0.0; 5],
     };
 
     /// Sums a model would give with unit omni power per peak (restoring a saved estimate).
@@ -267,60 +322,56 @@ impl BandSums {
             let cross = if i == j { KAPPA } else { -0.5 * KAPPA };
             n * (a[i] * a[j] + cross * b[i] * b[j])
         };
-        let mean = (a[0] + a[1] + a[2]) / 3.0;
-        let z = to_plane(a.map(|v| v - mean));
+        let z = to_plane(zero_mean(a));
+        let zd = to_plane(zero_mean(b.map(|v| KAPPA * v * v)));
         Self {
             ww: n,
             xw: a.map(|v| n * v),
             xx: [r(0, 0), r(1, 1), r(2, 2), r(0, 1), r(0, 2), r(1, 2)],
             n,
             plane: [n, 0.0, n, n * z[0], n * z[1]],
+            dipole_plane: [n, 0.0, n, n * zd[0], n * zd[1]],
         }
     }
 
-    /// Adds one frame's normal equations: its omni parts `xw / ww` with weight `weight`; with
-    /// `talker` (the tracked direction's cosine and sine), only their component across it, because
-    /// the talker's reverberation leaks into the background along its own direction.
-    fn add_plane(&mut self, frame: &Self, weight: f32, talker: Option<(f32, f32)>) {
+    /// Adds one frame's normal equations: its omni parts `xw / ww` and its dipole powers, the
+    /// power left after the omni parts `omni` of the current estimate, `|X_m − a_m·W|² / |W|²`
+    /// (the frame's own omni parts, from a few peaks, would take a share of it), with weight
+    /// `weight`; with `talker` (the tracked direction's cosine and
+    /// sine), only their components across the patterns the talker's reverberation, which leaks
+    /// into the background, gives them: along its direction for the omni parts, along twice its
+    /// angle (cos 2(θ − φ_m)) for the dipole powers.
+    fn add_plane(
+        &mut self,
+        frame: &Self,
+        weight: f32,
+        talker: Option<(f32, f32)>,
+        omni: &[f32; CARDIOIDS],
+    ) {
         if !(frame.ww > 0.0) {
             return;
         }
         let inv = 1.0 / frame.ww;
         let a = frame.xw.map(|v| v * inv);
-        let mean = (a[0] + a[1] + a[2]) / 3.0;
-        let z = to_plane(a.map(|v| v - mean));
-        let p = &mut self.plane;
-        match talker {
-            Some((c, s)) => {
-                // P = n·nᵀ with n = (−sin θ, cos θ).
-                let (nx, ny) = (-s, c);
-                let along = weight * (nx * z[0] + ny * z[1]);
-                p[0] += weight * nx * nx;
-                p[1] += weight * nx * ny;
-                p[2] += weight * ny * ny;
-                p[3] += along * nx;
-                p[4] += along * ny;
-            }
-            None => {
-                p[0] += weight;
-                p[2] += weight;
-                p[3] += weight * z[0];
-                p[4] += weight * z[1];
-            }
-        }
-    }
-
-    /// The omni parts' deviation from their mean: the solution of the plane's normal equations.
-    fn plane_deviation(&self) -> Option<[f32; CARDIOIDS]> {
-        let [xx, xy, yy, rx, ry] = self.plane;
-        let ridge = PLANE_RIDGE * 0.5 * (xx + yy);
-        let (xx, yy) = (xx + ridge, yy + ridge);
-        let det = xx * yy - xy * xy;
-        if !(det > 0.0) || !det.is_finite() {
-            return None;
-        }
-        let z = [(yy * rx - xy * ry) / det, (xx * ry - xy * rx) / det];
-        Some(from_plane(z))
+        let r = [0, 1, 2].map(|m| {
+            let o = omni[m];
+            (frame.xx[m] - 2.0 * o * frame.xw[m]) * inv + o * o
+        });
+        // Across the direction θ: (−sin θ, cos θ); across cos 2(θ − φ_m), whose plane
+        // coordinates are (cos 2θ, −sin 2θ): (sin 2θ, cos 2θ).
+        let across = talker.map(|(c, s)| ((-s, c), (2.0 * c * s, c * c - s * s)));
+        accumulate(
+            &mut self.plane,
+            to_plane(zero_mean(a)),
+            weight,
+            across.map(|x| x.0),
+        );
+        accumulate(
+            &mut self.dipole_plane,
+            to_plane(zero_mean(r)),
+            weight,
+            across.map(|x| x.1),
+        );
     }
 
     fn add_scaled(&mut self, other: &Self, keep: f32, scale: f32) {
@@ -334,6 +385,7 @@ impl BandSums {
         self.n = keep * self.n + other.n;
         for k in 0..5 {
             self.plane[k] = keep * self.plane[k] + other.plane[k];
+            self.dipole_plane[k] = keep * self.dipole_plane[k] + other.dipole_plane[k];
         }
     }
 
@@ -384,18 +436,19 @@ impl BandSums {
         if !(self.n > 0.0) {
             return None;
         }
-        let (a, _, off) = self.residuals()?;
-        // b_i·b_j = −2·R_ij/κ.
-        let p = off.map(|v| -2.0 * v / KAPPA);
-        if !p.iter().all(|v| *v > 0.0) {
+        let (a, diag, off) = self.residuals()?;
+        // A diffuse background's dipole parts correlate negatively (R_mn = −½κ·b_m·b_n).
+        if !off.iter().all(|v| *v < 0.0) {
             return None;
         }
-        let sq = crate::fast_math::sqrtf;
-        let b = [
-            sq(p[0] * p[1] / p[2]),
-            sq(p[0] * p[2] / p[1]),
-            sq(p[1] * p[2] / p[0]),
-        ];
+        // κ·b_m² = R_mm: their mean from the sums, their deviation from the dipole plane.
+        let mean_r = (diag[0] + diag[1] + diag[2]) / 3.0;
+        let dev_r = plane_deviation(&self.dipole_plane)?;
+        let r = [0, 1, 2].map(|m| mean_r + dev_r[m]);
+        if !r.iter().all(|v| *v > 0.0) {
+            return None;
+        }
+        let b = r.map(crate::fast_math::sqrtf);
         // The peaks are the bins where |W| stands out, so E|W|² over them exceeds the field's and
         // scales every b_m·b_n alike: only the ratios of b are measured. A common factor of the
         // dipole parts acts like a change of SNR (the noisy references absorb it); it is set so
@@ -403,7 +456,7 @@ impl BandSums {
         let scale = (a[0] + a[1] + a[2]) / (b[0] + b[1] + b[2]);
         let b = b.map(|v| v * scale);
         let mean = (a[0] + a[1] + a[2]) / 3.0;
-        let dev = self.plane_deviation()?;
+        let dev = plane_deviation(&self.plane)?;
         let model = BandModel {
             omni_part: [mean + dev[0], mean + dev[1], mean + dev[2]],
             dipole_part: b,
@@ -724,12 +777,18 @@ impl CapsuleCalibrationState {
             let r = d.to_radians();
             (libm::cosf(r), libm::sinf(r))
         });
-        for ((s, add), p) in self.batch.iter_mut().zip(&frame).zip(self.band_power) {
+        for (((s, add), p), model) in self
+            .batch
+            .iter_mut()
+            .zip(&frame)
+            .zip(self.band_power)
+            .zip(&self.accepted.bands)
+        {
             // Each band's sums in units of its power, so that loud and quiet frames weigh alike.
             if add.n > 0.0 && p > 0.0 {
                 let inv = 1.0 / p;
                 s.add_scaled(add, 1.0, inv);
-                s.add_plane(add, inv * add.ww, talker);
+                s.add_plane(add, inv * add.ww, talker, &model.omni_part);
             }
         }
         self.batch_frames += 1;
@@ -893,9 +952,10 @@ mod tests {
     }
 
     #[test]
-    fn a_talkers_reverberation_does_not_pull_the_omni_parts() {
+    fn a_talkers_reverberation_does_not_pull_the_estimate() {
         // A coherent part from the talker's direction in the background biases the raw omni parts
-        // toward it; with the talker's direction given, that component is not learned.
+        // and dipole powers toward it; with the talker's direction given, those components are
+        // not learned.
         let mut st = fresh();
         feed(
             &mut st,
@@ -911,6 +971,7 @@ mod tests {
         for band in st.estimate().bands {
             for m in 0..3 {
                 assert!((band.omni_part[m] - 0.5).abs() < 0.015, "{band:?}");
+                assert!((band.dipole_part[m] - 0.5).abs() < 0.015, "{band:?}");
             }
         }
         let mut blind = fresh();
@@ -919,6 +980,8 @@ mod tests {
         );
         let pulled = blind.estimate().bands[1].omni_part[0] - 0.5;
         assert!(pulled > 0.05, "{pulled}");
+        let pulled = blind.estimate().bands[1].dipole_part[0] - 0.5;
+        assert!(pulled > 0.02, "{pulled}");
     }
 
     #[test]
@@ -950,7 +1013,14 @@ mod tests {
             let dev = saved.bands[1].omni_part[i] - 0.5;
             // The plane's ridge shrinks a deviation by 2 %.
             assert!((m.omni_part[i] - 0.5 - dev / (1.0 + PLANE_RIDGE)).abs() < 1e-4);
-            assert!((m.dipole_part[i] - saved.bands[1].dipole_part[i]).abs() < 1e-4);
+        }
+        // The dipole powers' deviations shrink alike, then the patterns are scaled to Σb = Σa.
+        let power = saved.bands[1].dipole_part.map(|b| KAPPA * b * b);
+        let mean = power.iter().sum::<f32>() / 3.0;
+        let b = power.map(|p| libm::sqrtf(mean + (p - mean) / (1.0 + PLANE_RIDGE)));
+        let scale = 1.5 / b.iter().sum::<f32>();
+        for i in 0..3 {
+            assert!((m.dipole_part[i] - scale * b[i]).abs() < 1e-4, "{m:?}");
         }
         // Nonsense is not restored.
         let mut bad = saved;
