@@ -22,6 +22,10 @@ use crate::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS};
 use crate::CARDIOIDS;
 use core::fmt;
 
+/// The records' checksum: the table file's CRC-32 (IEEE 802.3, as zlib's `crc32`).
+pub use super::table_file::crc32;
+use super::table_file::crc32_update;
+
 /// Bytes of a record (a multiple of 16, the flash write unit of every supported board).
 pub const RECORD_LEN: usize = 144;
 /// First four bytes of a record.
@@ -74,23 +78,6 @@ impl fmt::Display for RecordError {
 }
 
 impl core::error::Error for RecordError {}
-
-/// CRC-32 (IEEE 802.3, reflected, as zlib's `crc32`) of `bytes`.
-#[must_use]
-pub fn crc32(bytes: &[u8]) -> u32 {
-    !crc32_update(!0, bytes)
-}
-
-/// Feeds `bytes` to a running CRC-32 register (start with `!0`, finish with `!`).
-fn crc32_update(mut crc: u32, bytes: &[u8]) -> u32 {
-    for &b in bytes {
-        crc ^= u32::from(b);
-        for _ in 0..8 {
-            crc = (crc >> 1) ^ (0xEDB8_8320 & (crc & 1).wrapping_neg());
-        }
-    }
-    crc
-}
 
 /// The per-band values of `estimate` in record order.
 fn values(estimate: &CapsuleEstimate) -> impl Iterator<Item = f32> + '_ {

@@ -145,11 +145,16 @@ impl core::fmt::Display for TableFileError {
 
 impl core::error::Error for TableFileError {}
 
-/// CRC-32 (IEEE 802.3 polynomial, reflected, init and final XOR `0xFFFF_FFFF`), bitwise: slow but
-/// table-free, which is fine for a file that is checked once.
+/// CRC-32 (IEEE 802.3 polynomial, reflected, init and final XOR `0xFFFF_FFFF`, as zlib's
+/// `crc32`), bitwise: slow but table-free, which is fine for a file that is checked once and a
+/// record written once a minute (the estimate store's records use it too).
 #[must_use]
 pub fn crc32(bytes: &[u8]) -> u32 {
-    let mut crc = 0xFFFF_FFFFu32;
+    !crc32_update(!0, bytes)
+}
+
+/// Feeds `bytes` to a running [`crc32`] register (start with `!0`, finish with `!`).
+pub(crate) fn crc32_update(mut crc: u32, bytes: &[u8]) -> u32 {
     for b in bytes {
         crc ^= u32::from(*b);
         for _ in 0..8 {
@@ -157,7 +162,7 @@ pub fn crc32(bytes: &[u8]) -> u32 {
             crc = (crc >> 1) ^ (0xEDB8_8320 & mask);
         }
     }
-    !crc
+    crc
 }
 
 /// Total size in bytes of a file of the current [`VERSION`] for Q azimuths and F frequency rows.
