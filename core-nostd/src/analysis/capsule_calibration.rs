@@ -31,7 +31,10 @@
 //! along cos(θ − φ_m) and to the dipole powers one along cos 2(θ − φ_m); each frame's deviations
 //! (zero-mean over the three cardioids, a point in a plane) are therefore learned only across that
 //! pattern, and talkers heard from several places fill in the rest (a ridge keeps what was never
-//! observed at the ideal capsule).
+//! observed at the ideal capsule). The tracked θ is off now and then (a reflection, a slip), and
+//! each such frame lets some of that deviation through; frames in which the band has fallen to its
+//! floor ([`QUIET_DB`]), where little reverberation is left, teach the whole deviation and so
+//! outweigh the leak.
 //!
 //! The cross-powers check the field: for an isotropic field every normalised R_mn / √(R_mm·R_nn)
 //! is −½ whatever the capsules, while a directional noise source (a fan, a loudspeaker) adds a
@@ -120,7 +123,7 @@ impl CapsuleCalibration {
         background_db: 3.0,
         directional_reliability: 0.5,
         memory_frames: 10_000.0,
-        shrinkage: 0.35,
+        shrinkage: 0.2,
         max_anisotropy: 0.05,
     };
 
@@ -545,6 +548,8 @@ pub struct CapsuleCalibrationState {
     fresh_floor: NoiseFloor,
     /// Band power over its floor up to which the band is background (power ratio).
     background_ratio: f32,
+    /// Band power over its floor up to which a background band is quiet ([`QUIET_DB`]).
+    quiet_ratio: f32,
     accepted: CapsuleEstimate,
     correction: [Correction; CAL_BANDS],
     forget: f32,
@@ -562,6 +567,12 @@ const DIRECTIONAL_SHARE: f32 = 0.2;
 
 /// Largest rise of a band's background floor, dB per second.
 const FLOOR_RISE_DB_PER_S: f32 = 1.0;
+
+/// A background band within this many dB of its tracked floor is quiet: the talker's reverberation
+/// has died away in it (at most about a fifth of its power), and the frame teaches the whole
+/// deviation of the capsules (docs/self-calibration.md: on an ideal array, the estimate's early
+/// error falls; louder background frames teach only across the talker's patterns).
+const QUIET_DB: f32 = 1.0;
 
 /// The batch is checked every this many background frames.
 const CHECK_FRAMES: u32 = 16;
@@ -586,6 +597,7 @@ impl CapsuleCalibrationState {
             directional_share: 0.0,
             fresh_floor: NoiseFloor::idle(),
             background_ratio: 1.0,
+            quiet_ratio: 1.0,
             accepted: CapsuleEstimate::IDEAL,
             correction: [Correction::IDENTITY; CAL_BANDS],
             forget: 1.0,
@@ -634,6 +646,7 @@ impl CapsuleCalibrationState {
         };
         self.fresh_floor = NoiseFloor::new(&gate, frames_per_s);
         self.background_ratio = power_ratio_from_db(settings.background_db);
+        self.quiet_ratio = power_ratio_from_db(QUIET_DB);
         self.forget = 1.0 - 1.0 / settings.memory_frames;
         self.restore(start);
     }
@@ -777,17 +790,22 @@ impl CapsuleCalibrationState {
             let r = d.to_radians();
             (libm::cosf(r), libm::sinf(r))
         });
-        for (((s, add), p), model) in self
+        for ((((s, add), p), model), floor) in self
             .batch
             .iter_mut()
             .zip(&frame)
             .zip(self.band_power)
             .zip(&self.accepted.bands)
+            .zip(&self.band_floor)
         {
             // Each band's sums in units of its power, so that loud and quiet frames weigh alike.
             if add.n > 0.0 && p > 0.0 {
                 let inv = 1.0 / p;
                 s.add_scaled(add, 1.0, inv);
+                // At its floor the band holds little of the talker's reverberation: the frame
+                // teaches the whole deviation, not only its part across the talker's patterns.
+                let quiet = p <= floor.floor() * self.quiet_ratio;
+                let talker = if quiet { None } else { talker };
                 s.add_plane(add, inv * add.ww, talker, &model.omni_part);
             }
         }
@@ -982,6 +1000,50 @@ mod tests {
         assert!(pulled > 0.05, "{pulled}");
         let pulled = blind.estimate().bands[1].dipole_part[0] - 0.5;
         assert!(pulled > 0.02, "{pulled}");
+    }
+
+    #[test]
+    fn quiet_frames_teach_the_deviation_along_the_talker() {
+        // Omni parts that deviate along the talker's direction: background frames above the floor
+        // cannot tell that from the talker's reverberation and leave it, frames at the floor
+        // learn it.
+        let along =
+            [0.0f32, 120.0, 240.0].map(|l| 0.5 + 0.05 * libm::cosf((30.0 - l).to_radians()));
+        let mut above = fresh();
+        feed(
+            &mut above,
+            along,
+            [0.5; 3],
+            0.0,
+            0.0,
+            Some(30.0),
+            false,
+            8_000,
+            11,
+        );
+        let mut at_floor = fresh();
+        for floor in &mut at_floor.band_floor {
+            floor.update(1.0);
+        }
+        feed(
+            &mut at_floor,
+            along,
+            [0.5; 3],
+            0.0,
+            0.0,
+            Some(30.0),
+            false,
+            8_000,
+            11,
+        );
+        for band in 0..CAL_BANDS {
+            let learned = at_floor.estimate().bands[band].omni_part;
+            let left = above.estimate().bands[band].omni_part;
+            for m in 0..3 {
+                assert!((learned[m] - along[m]).abs() < 0.01, "{learned:?}");
+                assert!((left[m] - 0.5).abs() < 0.01, "{left:?}");
+            }
+        }
     }
 
     #[test]
