@@ -767,12 +767,12 @@ impl CapsuleCalibrationState {
     /// the background is directional and nothing is learned. Every 16 background frames each
     /// band's batch is checked: an anisotropic one is dropped (the band's estimate held), a
     /// diffuse one updates the estimate and joins the long-term sums once it holds 128 frames.
+    #[inline(never)]
     pub fn end_frame(&mut self, talker_deg: Option<f32>, directional: bool) {
         if !self.frame_used {
             return;
         }
         self.frame_used = false;
-        let frame = core::mem::replace(&mut self.frame, [BandSums::ZERO; CAL_BANDS]);
         // A frame that is background in every band is the background's own sound. Once the
         // estimate stands (before, the capsules' own errors make a diffuse background's curve
         // point somewhere too), such frames' curves pointing somewhere mean a directional
@@ -784,30 +784,33 @@ impl CapsuleCalibrationState {
         }
         if self.directional_share > DIRECTIONAL_SHARE {
             self.accepted.held = true;
+            self.frame = [BandSums::ZERO; CAL_BANDS];
             return;
         }
         let talker = talker_deg.map(|d| {
             let r = d.to_radians();
             (libm::cosf(r), libm::sinf(r))
         });
-        for ((((s, add), p), model), floor) in self
-            .batch
-            .iter_mut()
-            .zip(&frame)
-            .zip(self.band_power)
-            .zip(&self.accepted.bands)
-            .zip(&self.band_floor)
-        {
+        for band in 0..CAL_BANDS {
+            let add = &self.frame[band];
+            let p = self.band_power[band];
             // Each band's sums in units of its power, so that loud and quiet frames weigh alike.
             if add.n > 0.0 && p > 0.0 {
                 let inv = 1.0 / p;
+                let s = &mut self.batch[band];
                 s.add_scaled(add, 1.0, inv);
                 // At its floor the band holds little of the talker's reverberation: the frame
                 // teaches the whole deviation, not only its part across the talker's patterns.
-                let quiet = p <= floor.floor() * self.quiet_ratio;
+                let quiet = p <= self.band_floor[band].floor() * self.quiet_ratio;
                 let talker = if quiet { None } else { talker };
-                s.add_plane(add, inv * add.ww, talker, &model.omni_part);
+                s.add_plane(
+                    add,
+                    inv * add.ww,
+                    talker,
+                    &self.accepted.bands[band].omni_part,
+                );
             }
+            self.frame[band] = BandSums::ZERO;
         }
         self.batch_frames += 1;
         if !self.batch_frames.is_multiple_of(CHECK_FRAMES) {
