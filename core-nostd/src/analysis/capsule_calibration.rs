@@ -33,7 +33,7 @@
 //! pattern, and talkers heard from several places fill in the rest (a ridge keeps what was never
 //! observed at the ideal capsule). The tracked θ is off now and then (a reflection, a slip), and
 //! each such frame lets some of that deviation through; frames in which the band has fallen to its
-//! floor ([`QUIET_DB`]), where little reverberation is left, teach the whole deviation and so
+//! floor (within 1 dB), where little reverberation is left, teach the whole deviation and so
 //! outweigh the leak.
 //!
 //! The cross-powers check the field: for an isotropic field every normalised R_mn / √(R_mm·R_nn)
