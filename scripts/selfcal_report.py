@@ -19,6 +19,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HS = os.environ.get("HS", os.path.join(ROOT, "target", "release", "host-sim"))
@@ -139,8 +140,6 @@ def main():
             eval_rows[label] = evaluate(a.eval, flags)
 
     # The shrinkage trade-off: how early a deviation is applied, on both arrays.
-    import tempfile
-
     shrink = {}
     with tempfile.TemporaryDirectory() as tmp:
         for value in SHRINKAGE:

@@ -767,6 +767,7 @@ impl CapsuleCalibrationState {
     /// the background is directional and nothing is learned. Every 16 background frames each
     /// band's batch is checked: an anisotropic one is dropped (the band's estimate held), a
     /// diffuse one updates the estimate and joins the long-term sums once it holds 128 frames.
+    // Not inlined: one copy for every caller (less flash on the boards).
     #[inline(never)]
     pub fn end_frame(&mut self, talker_deg: Option<f32>, directional: bool) {
         if !self.frame_used {
@@ -1012,33 +1013,16 @@ mod tests {
         // learn it.
         let along =
             [0.0f32, 120.0, 240.0].map(|l| 0.5 + 0.05 * libm::cosf((30.0 - l).to_radians()));
+        let learn = |st: &mut CapsuleCalibrationState| {
+            feed(st, along, [0.5; 3], 0.0, 0.0, Some(30.0), false, 8_000, 11);
+        };
         let mut above = fresh();
-        feed(
-            &mut above,
-            along,
-            [0.5; 3],
-            0.0,
-            0.0,
-            Some(30.0),
-            false,
-            8_000,
-            11,
-        );
+        learn(&mut above);
         let mut at_floor = fresh();
         for floor in &mut at_floor.band_floor {
             floor.update(1.0);
         }
-        feed(
-            &mut at_floor,
-            along,
-            [0.5; 3],
-            0.0,
-            0.0,
-            Some(30.0),
-            false,
-            8_000,
-            11,
-        );
+        learn(&mut at_floor);
         for band in 0..CAL_BANDS {
             let learned = at_floor.estimate().bands[band].omni_part;
             let left = above.estimate().bands[band].omni_part;
