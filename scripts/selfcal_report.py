@@ -31,7 +31,7 @@ CONFIGS = [
 ]
 
 # Settings of `capsule_calibration.shrinkage` in the trade-off table (the first is the default).
-SHRINKAGE = [0.1, 0.2, 0.05]
+SHRINKAGE = [0.2, 0.35, 0.1]
 
 
 def evaluate(folder, flags):

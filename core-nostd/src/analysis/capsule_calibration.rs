@@ -50,11 +50,8 @@
 //! falls as 1/√n. Its deviations from the ideal capsule are applied only in so far as they clear
 //! that error (a positive-part James–Stein factor per group of deviations, see
 //! [`CapsuleCalibration::shrinkage`]): a cold start begins ideal, an ideal array stays
-//! uncorrected, and a real imperfection is corrected more fully as the evidence grows. A group's
-//! deviation is sized where its evidence lies: a talker who stays in one place teaches only the
-//! part across its patterns, so the part along them rests on the few quiet frames, is the noisier
-//! (on an ideal array in a room it carries the talker's lingering reverberation) and counts for
-//! less. The reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
+//! uncorrected, and a real imperfection is corrected more fully as the evidence grows. The
+//! reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
 //!
 //! State: per band 20 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
@@ -126,7 +123,7 @@ impl CapsuleCalibration {
         background_db: 3.0,
         directional_reliability: 0.5,
         memory_frames: 10_000.0,
-        shrinkage: 0.1,
+        shrinkage: 0.2,
         max_anisotropy: 0.05,
     };
 
@@ -252,8 +249,7 @@ struct BandSums {
 /// sin 120° = √3/2.
 const H: f32 = 0.866_025_4;
 
-/// Plane coordinates (x, y) of the per-cardioid vector v_m = μ + x cos φ_m + y sin φ_m (its mean μ
-/// cancels: the coordinates of `v` less its mean).
+/// Plane coordinates (x, y) of a zero-mean per-cardioid vector v_m = x cos φ_m + y sin φ_m.
 fn to_plane(v: [f32; CARDIOIDS]) -> [f32; 2] {
     // cos φ_m = 1, −½, −½; sin φ_m = 0, √3/2, −√3/2; x = ⅔Σ v_m cos φ_m, y = ⅔Σ v_m sin φ_m.
     [
@@ -265,6 +261,12 @@ fn to_plane(v: [f32; CARDIOIDS]) -> [f32; 2] {
 /// The per-cardioid vector of plane coordinates `z` (inverse of [`to_plane`] on zero-mean vectors).
 fn from_plane(z: [f32; 2]) -> [f32; CARDIOIDS] {
     [z[0], -0.5 * z[0] + H * z[1], -0.5 * z[0] - H * z[1]]
+}
+
+/// `v` less its mean.
+fn zero_mean(v: [f32; CARDIOIDS]) -> [f32; CARDIOIDS] {
+    let mean = (v[0] + v[1] + v[2]) / 3.0;
+    v.map(|x| x - mean)
 }
 
 /// Adds plane coordinates `z` with weight `weight` to the normal equations `p` (Σ w·P as xx, xy,
@@ -302,19 +304,6 @@ fn plane_deviation(p: &[f32; 5]) -> Option<[f32; CARDIOIDS]> {
     Some(from_plane(z))
 }
 
-/// The size of the zero-mean per-cardioid deviation `d` where the evidence lies: 1.5·zᵀ·(P/w)·z
-/// for its plane coordinates z and the normal equations `info` (P as xx, xy, yy) of total frame
-/// weight `total` — Σ d² (= 1.5·|z|²) when every frame taught every direction (P = w·I), less for
-/// a deviation along directions few frames taught; 0 without evidence.
-fn evidence_weighted_size(d: [f32; CARDIOIDS], info: &[f32; 5], total: f32) -> f32 {
-    if !(total > 0.0) {
-        return 0.0;
-    }
-    let z = to_plane(d);
-    let [xx, xy, yy, _, _] = *info;
-    1.5 * (xx * z[0] * z[0] + 2.0 * xy * z[0] * z[1] + yy * z[1] * z[1]) / total
-}
-
 /// Ridge of the plane's normal equations, relative to their mean eigenvalue: a direction never
 /// observed stays at the ideal capsule.
 const PLANE_RIDGE: f32 = 0.02;
@@ -336,8 +325,8 @@ impl BandSums {
             let cross = if i == j { KAPPA } else { -0.5 * KAPPA };
             n * (a[i] * a[j] + cross * b[i] * b[j])
         };
-        let z = to_plane(a);
-        let zd = to_plane(b.map(|v| KAPPA * v * v));
+        let z = to_plane(zero_mean(a));
+        let zd = to_plane(zero_mean(b.map(|v| KAPPA * v * v)));
         Self {
             ww: n,
             xw: a.map(|v| n * v),
@@ -374,10 +363,15 @@ impl BandSums {
         // Across the direction θ: (−sin θ, cos θ); across cos 2(θ − φ_m), whose plane
         // coordinates are (cos 2θ, −sin 2θ): (sin 2θ, cos 2θ).
         let across = talker.map(|(c, s)| ((-s, c), (2.0 * c * s, c * c - s * s)));
-        accumulate(&mut self.plane, to_plane(a), weight, across.map(|x| x.0));
+        accumulate(
+            &mut self.plane,
+            to_plane(zero_mean(a)),
+            weight,
+            across.map(|x| x.0),
+        );
         accumulate(
             &mut self.dipole_plane,
-            to_plane(r),
+            to_plane(zero_mean(r)),
             weight,
             across.map(|x| x.1),
         );
@@ -488,15 +482,11 @@ impl Correction {
         c0: [0.0; CARDIOIDS],
     };
 
-    /// The correction for `model` (solved from `sums`), each group of its deviations from the
-    /// ideal capsule shrunk by how far it clears its sampling noise `shrinkage`·dof/n
-    /// (positive-part James–Stein): the common gain (1 degree of freedom), the omni parts about
-    /// their mean and the dipole parts about it (2 each). A group's size is measured where its
-    /// evidence lies: frames with a tracked talker teach only across the talker's patterns, so a
-    /// deviation along them, resting on the few quiet frames, counts for less (its plane
-    /// coordinates weighted by the normal equations per unit of evidence, zᵀ·(P/Σw)·z; the plain
-    /// size when every frame taught every direction, as for a restored estimate).
-    fn of(model: &BandModel, shrinkage: f32, sums: &BandSums) -> Self {
+    /// The correction for `model`, each group of its deviations from the ideal capsule shrunk by
+    /// how far it clears its sampling noise `shrinkage`·dof/n (positive-part James–Stein): the
+    /// common gain (1 degree of freedom), the omni parts about their mean and the dipole parts
+    /// about it (2 each).
+    fn of(model: &BandModel, shrinkage: f32) -> Self {
         let n = model.peaks;
         if !(n > 0.0) {
             return Self::IDENTITY;
@@ -514,13 +504,11 @@ impl Correction {
         };
         let da = a.map(|v| v - mean);
         let db = b.map(|v| v - mean);
+        let sum_sq = |d: [f32; 3]| d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         let common = mean - 0.5;
         let s_common = factor(3.0 * common * common, 1.0);
-        let s_a = factor(evidence_weighted_size(da, &sums.plane, sums.ww), 2.0);
-        let s_b = factor(
-            evidence_weighted_size(db, &sums.dipole_plane, sums.ww),
-            2.0 * DIPOLE_EVIDENCE,
-        );
+        let s_a = factor(sum_sq(da), 2.0);
+        let s_b = factor(sum_sq(db), 2.0 * DIPOLE_EVIDENCE);
         let base = 0.5 + s_common * common;
         let mut c = Self::IDENTITY;
         for m in 0..CARDIOIDS {
@@ -672,8 +660,7 @@ impl CapsuleCalibrationState {
                 self.accepted.bands[band] = *model;
             }
             self.sums[band] = BandSums::of_model(&self.accepted.bands[band]);
-            let sums = self.sums[band];
-            self.update_correction(band, &sums);
+            self.update_correction(band);
         }
         self.frame = [BandSums::ZERO; CAL_BANDS];
         self.frame_used = false;
@@ -684,9 +671,8 @@ impl CapsuleCalibrationState {
         self.batch_frames = 0;
     }
 
-    fn update_correction(&mut self, band: usize, sums: &BandSums) {
-        self.correction[band] =
-            Correction::of(&self.accepted.bands[band], self.settings.shrinkage, sums);
+    fn update_correction(&mut self, band: usize) {
+        self.correction[band] = Correction::of(&self.accepted.bands[band], self.settings.shrinkage);
     }
 
     /// The accepted estimate.
@@ -848,7 +834,7 @@ impl CapsuleCalibrationState {
             }
             if let Some(model) = total.solve() {
                 self.accepted.bands[band] = model;
-                self.update_correction(band, &total);
+                self.update_correction(band);
             }
         }
         self.accepted.held = held;
@@ -1045,33 +1031,6 @@ mod tests {
                 assert!((left[m] - 0.5).abs() < 0.01, "{left:?}");
             }
         }
-    }
-
-    #[test]
-    fn a_deviation_along_untaught_directions_is_applied_later() {
-        // Evidence from frames with a talker at 0°: omni parts taught across it (the plane's y
-        // axis) by 900 frames, along it (x) by 100 quiet ones.
-        let mut sums = BandSums::ZERO;
-        sums.ww = 1000.0;
-        sums.plane = [100.0, 0.0, 1000.0, 0.0, 0.0];
-        sums.dipole_plane = sums.plane;
-        let applied = |dev: [f32; 2], sums: &BandSums| {
-            let mut model = BandModel::IDEAL;
-            model.omni_part = from_plane(dev).map(|d| 0.5 + d);
-            model.peaks = 1000.0;
-            let c = Correction::of(&model, 0.1, sums);
-            // The omni part the correction undoes: a = ½ − 2·b·c0 with b = ½.
-            to_plane(c.c0.map(|c0| -c0))
-        };
-        // The same deviation, 0.02: applied (two thirds) across the talker, not along it.
-        let across = applied([0.0, 0.02], &sums);
-        let along = applied([0.02, 0.0], &sums);
-        assert!(across[1] > 0.012, "{across:?}");
-        assert!(along[0].abs() < 1e-6, "{along:?}");
-        // Where every frame taught every direction, the two are alike.
-        sums.plane = [1000.0, 0.0, 1000.0, 0.0, 0.0];
-        let along = applied([0.02, 0.0], &sums);
-        assert!((along[0] - across[1]).abs() < 1e-5, "{along:?} {across:?}");
     }
 
     #[test]
