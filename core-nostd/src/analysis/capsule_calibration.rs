@@ -50,8 +50,14 @@
 //! falls as 1/√n. Its deviations from the ideal capsule are applied only in so far as they clear
 //! that error (a positive-part James–Stein factor per group of deviations, see
 //! [`CapsuleCalibration::shrinkage`]): a cold start begins ideal, an ideal array stays
-//! uncorrected, and a real imperfection is corrected more fully as the evidence grows. The
-//! reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
+//! uncorrected, and a real imperfection is corrected more fully as the evidence grows. A real
+//! capsule's gain and pattern change little from band to band, while the errors of the bands'
+//! estimates (sampling noise, and on an ideal array in a room the talker's lingering
+//! reverberation, which differs from band to band) do not agree: so each group is split into its
+//! mean over the bands, which clears the noise of all the bands' evidence together, and each
+//! band's own rest, which must clear its band's. A cold start's low band, with the fewest
+//! background peaks, is thus corrected with what the other bands learned. The reported
+//! confidence is n/(n + [`CONFIDENT_PEAKS`]).
 //!
 //! State: per band 20 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
@@ -482,42 +488,76 @@ impl Correction {
         c0: [0.0; CARDIOIDS],
     };
 
-    /// The correction for `model`, each group of its deviations from the ideal capsule shrunk by
-    /// how far it clears its sampling noise `shrinkage`·dof/n (positive-part James–Stein): the
-    /// common gain (1 degree of freedom), the omni parts about their mean and the dipole parts
-    /// about it (2 each).
-    fn of(model: &BandModel, shrinkage: f32) -> Self {
-        let n = model.peaks;
-        if !(n > 0.0) {
-            return Self::IDENTITY;
+    /// The corrections for the bands' `models`. Each group of deviations from the ideal capsule —
+    /// the common gain (1 degree of freedom), the omni parts about their mean and the dipole parts
+    /// about it (2 each) — is split into its mean over the bands (weighted by their evidence) and
+    /// each band's own rest, and each part is shrunk by how far it clears its sampling noise
+    /// `shrinkage`·dof/n (positive-part James–Stein): the shared part with the evidence of all
+    /// bands, the rest with its band's.
+    fn of_bands(models: &[BandModel; CAL_BANDS], shrinkage: f32) -> [Self; CAL_BANDS] {
+        struct Parts {
+            n: f32,
+            common: f32,
+            da: [f32; CARDIOIDS],
+            db: [f32; CARDIOIDS],
         }
-        let a = model.omni_part;
-        let b = model.dipole_part;
-        let mean = (a[0] + a[1] + a[2]) / 3.0;
-        let noise = shrinkage / n;
-        let factor = |sq: f32, dof: f32| {
-            if sq > 0.0 {
-                (1.0 - noise * dof / sq).max(0.0)
+        let parts = models.map(|m| {
+            let a = m.omni_part;
+            let mean = (a[0] + a[1] + a[2]) / 3.0;
+            let n = if m.peaks > 0.0 { m.peaks } else { 0.0 };
+            Parts {
+                n,
+                common: mean - 0.5,
+                da: a.map(|v| v - mean),
+                db: m.dipole_part.map(|v| v - mean),
+            }
+        });
+        let total: f32 = parts.iter().map(|p| p.n).sum();
+        let mut out = [Self::IDENTITY; CAL_BANDS];
+        if !(total > 0.0) {
+            return out;
+        }
+        let factor = |sq: f32, dof: f32, n: f32| {
+            if sq > 0.0 && n > 0.0 {
+                (1.0 - shrinkage / n * dof / sq).max(0.0)
             } else {
                 0.0
             }
         };
-        let da = a.map(|v| v - mean);
-        let db = b.map(|v| v - mean);
         let sum_sq = |d: [f32; 3]| d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let common = mean - 0.5;
-        let s_common = factor(3.0 * common * common, 1.0);
-        let s_a = factor(sum_sq(da), 2.0);
-        let s_b = factor(sum_sq(db), 2.0 * DIPOLE_EVIDENCE);
-        let base = 0.5 + s_common * common;
-        let mut c = Self::IDENTITY;
-        for m in 0..CARDIOIDS {
-            let am = base + s_a * da[m];
-            let bm = base + s_b * db[m];
-            c.c1[m] = 0.5 / bm;
-            c.c0[m] = 0.5 - 0.5 * am / bm;
+        let mut common = 0.0;
+        let mut da = [0.0f32; CARDIOIDS];
+        let mut db = [0.0f32; CARDIOIDS];
+        for p in &parts {
+            let w = p.n / total;
+            common += w * p.common;
+            for m in 0..CARDIOIDS {
+                da[m] += w * p.da[m];
+                db[m] += w * p.db[m];
+            }
         }
-        c
+        let s_common = factor(3.0 * common * common, 1.0, total);
+        let s_a = factor(sum_sq(da), 2.0, total);
+        let s_b = factor(sum_sq(db), 2.0 * DIPOLE_EVIDENCE, total);
+        for (c, p) in out.iter_mut().zip(&parts) {
+            if !(p.n > 0.0) {
+                continue;
+            }
+            let rc = p.common - common;
+            let ra = [0, 1, 2].map(|m| p.da[m] - da[m]);
+            let rb = [0, 1, 2].map(|m| p.db[m] - db[m]);
+            let r_common = factor(3.0 * rc * rc, 1.0, p.n);
+            let r_a = factor(sum_sq(ra), 2.0, p.n);
+            let r_b = factor(sum_sq(rb), 2.0 * DIPOLE_EVIDENCE, p.n);
+            let base = 0.5 + s_common * common + r_common * rc;
+            for m in 0..CARDIOIDS {
+                let am = base + s_a * da[m] + r_a * ra[m];
+                let bm = base + s_b * db[m] + r_b * rb[m];
+                c.c1[m] = 0.5 / bm;
+                c.c0[m] = 0.5 - 0.5 * am / bm;
+            }
+        }
+        out
     }
 }
 
@@ -660,8 +700,8 @@ impl CapsuleCalibrationState {
                 self.accepted.bands[band] = *model;
             }
             self.sums[band] = BandSums::of_model(&self.accepted.bands[band]);
-            self.update_correction(band);
         }
+        self.update_corrections();
         self.frame = [BandSums::ZERO; CAL_BANDS];
         self.frame_used = false;
         self.band_floor = [self.fresh_floor; CAL_BANDS];
@@ -671,8 +711,8 @@ impl CapsuleCalibrationState {
         self.batch_frames = 0;
     }
 
-    fn update_correction(&mut self, band: usize) {
-        self.correction[band] = Correction::of(&self.accepted.bands[band], self.settings.shrinkage);
+    fn update_corrections(&mut self) {
+        self.correction = Correction::of_bands(&self.accepted.bands, self.settings.shrinkage);
     }
 
     /// The accepted estimate.
@@ -834,9 +874,9 @@ impl CapsuleCalibrationState {
             }
             if let Some(model) = total.solve() {
                 self.accepted.bands[band] = model;
-                self.update_correction(band);
             }
         }
+        self.update_corrections();
         self.accepted.held = held;
         if merge {
             self.batch = [BandSums::ZERO; CAL_BANDS];
@@ -1029,6 +1069,50 @@ mod tests {
             for m in 0..3 {
                 assert!((learned[m] - along[m]).abs() < 0.01, "{learned:?}");
                 assert!((left[m] - 0.5).abs() < 0.01, "{left:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_band_with_little_evidence_is_corrected_with_what_the_others_learned() {
+        // The same imperfect capsules in every band; the lowest band has heard 30 background
+        // peaks, too few to clear its own noise, the others 3000.
+        let mut model = BandModel::IDEAL;
+        model.omni_part = [0.55, 0.47, 0.46];
+        model.dipole_part = [0.52, 0.47, 0.50];
+        let mut models = [BandModel {
+            peaks: 3000.0,
+            ..model
+        }; CAL_BANDS];
+        models[0].peaks = 30.0;
+        let c = Correction::of_bands(&models, 0.2);
+        // The omni part each correction undoes: a = b·(1 − 2·c0) with the applied b = ½/c1.
+        let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
+        for band in 0..CAL_BANDS {
+            let a = undone(&c[band]);
+            for m in 0..3 {
+                let want = model.omni_part[m] - 0.5;
+                assert!(
+                    (a[m] - 0.5 - want).abs() < 0.1 * want.abs() + 1e-3,
+                    "{band} {a:?}"
+                );
+            }
+        }
+        // Bands that disagree share nothing: each rest must clear its own band's noise.
+        let mut models = [BandModel {
+            peaks: 30.0,
+            ..model
+        }; CAL_BANDS];
+        for band in [1, 3] {
+            models[band].omni_part = model.omni_part.map(|a| 1.0 - a);
+            models[band].dipole_part = model.dipole_part.map(|b| 1.0 - b);
+        }
+        for c in Correction::of_bands(&models, 0.2) {
+            for m in 0..3 {
+                assert!(
+                    (c.c1[m] - 1.0).abs() < 0.02 && c.c0[m].abs() < 0.02,
+                    "{c:?}"
+                );
             }
         }
     }
