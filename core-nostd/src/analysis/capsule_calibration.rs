@@ -185,6 +185,21 @@ impl BandModel {
         self.dipole_part[m] / (self.omni_part[m] + self.dipole_part[m])
     }
 
+    /// Adds n·(the parts of `model`) to the parts and n to the count (n its count; nothing without
+    /// evidence).
+    // Not inlined: one copy for every band (less flash on the boards).
+    #[inline(never)]
+    fn add_weighted(&mut self, model: &Self) {
+        let n = model.peaks;
+        if n > 0.0 {
+            self.peaks += n;
+            for k in 0..CARDIOIDS {
+                self.omni_part[k] += n * model.omni_part[k];
+                self.dipole_part[k] += n * model.dipole_part[k];
+            }
+        }
+    }
+
     /// Whether the values are a plausible first-order cardioid (finite, 0.3 < a, b < 0.75 — gains
     /// within about ±3 dB, β within about 0.3…0.7 — and n ≥ 0).
     #[must_use]
@@ -488,76 +503,103 @@ impl Correction {
         c0: [0.0; CARDIOIDS],
     };
 
-    /// The corrections for the bands' `models`. Each group of deviations from the ideal capsule —
-    /// the common gain (1 degree of freedom), the omni parts about their mean and the dipole parts
-    /// about it (2 each) — is split into its mean over the bands (weighted by their evidence) and
+    /// The corrections for the bands' `models`, into `out`. Each group of deviations from the
+    /// ideal capsule — the common gain (1 degree of freedom), the omni parts about their mean and
+    /// the dipole parts about it (2 each) — is split into its mean over the bands (weighted by their evidence) and
     /// each band's own rest, and each part is shrunk by how far it clears its sampling noise
     /// `shrinkage`·dof/n (positive-part James–Stein): the shared part with the evidence of all
     /// bands, the rest with its band's.
-    fn of_bands(models: &[BandModel; CAL_BANDS], shrinkage: f32) -> [Self; CAL_BANDS] {
-        struct Parts {
-            n: f32,
-            common: f32,
-            da: [f32; CARDIOIDS],
-            db: [f32; CARDIOIDS],
-        }
-        let parts = models.map(|m| {
-            let a = m.omni_part;
-            let mean = (a[0] + a[1] + a[2]) / 3.0;
-            let n = if m.peaks > 0.0 { m.peaks } else { 0.0 };
-            Parts {
-                n,
-                common: mean - 0.5,
-                da: a.map(|v| v - mean),
-                db: m.dipole_part.map(|v| v - mean),
-            }
-        });
-        let total: f32 = parts.iter().map(|p| p.n).sum();
-        let mut out = [Self::IDENTITY; CAL_BANDS];
-        if !(total > 0.0) {
-            return out;
-        }
-        let factor = |sq: f32, dof: f32, n: f32| {
-            if sq > 0.0 && n > 0.0 {
-                (1.0 - shrinkage / n * dof / sq).max(0.0)
-            } else {
-                0.0
-            }
+    fn of_bands(out: &mut [Self; CAL_BANDS], models: &[BandModel; CAL_BANDS], shrinkage: f32) {
+        // The evidence-weighted mean model (the deviations are linear in the parts).
+        let mut mean = BandModel {
+            omni_part: [0.0; CARDIOIDS],
+            dipole_part: [0.0; CARDIOIDS],
+            peaks: 0.0,
         };
-        let sum_sq = |d: [f32; 3]| d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let mut common = 0.0;
-        let mut da = [0.0f32; CARDIOIDS];
-        let mut db = [0.0f32; CARDIOIDS];
-        for p in &parts {
-            let w = p.n / total;
-            common += w * p.common;
-            for m in 0..CARDIOIDS {
-                da[m] += w * p.da[m];
-                db[m] += w * p.db[m];
-            }
+        for m in models {
+            mean.add_weighted(m);
         }
-        let s_common = factor(3.0 * common * common, 1.0, total);
-        let s_a = factor(sum_sq(da), 2.0, total);
-        let s_b = factor(sum_sq(db), 2.0 * DIPOLE_EVIDENCE, total);
-        for (c, p) in out.iter_mut().zip(&parts) {
-            if !(p.n > 0.0) {
-                continue;
-            }
-            let rc = p.common - common;
-            let ra = [0, 1, 2].map(|m| p.da[m] - da[m]);
-            let rb = [0, 1, 2].map(|m| p.db[m] - db[m]);
-            let r_common = factor(3.0 * rc * rc, 1.0, p.n);
-            let r_a = factor(sum_sq(ra), 2.0, p.n);
-            let r_b = factor(sum_sq(rb), 2.0 * DIPOLE_EVIDENCE, p.n);
-            let base = 0.5 + s_common * common + r_common * rc;
-            for m in 0..CARDIOIDS {
-                let am = base + s_a * da[m] + r_a * ra[m];
-                let bm = base + s_b * db[m] + r_b * rb[m];
-                c.c1[m] = 0.5 / bm;
-                c.c0[m] = 0.5 - 0.5 * am / bm;
-            }
+        let total = mean.peaks;
+        let inv = 1.0 / total;
+        for k in 0..CARDIOIDS {
+            mean.omni_part[k] *= inv;
+            mean.dipole_part[k] *= inv;
         }
-        out
+        let mut shared = [[0.0; CARDIOIDS]; 2];
+        add_shrunk_deviations(&mean, shrinkage, &mut shared);
+        for (c, m) in out.iter_mut().zip(models) {
+            *c = Self::of_band(m, &mean, &shared, shrinkage);
+        }
+    }
+
+    /// The correction for one band's `model`: the `shared` deviations (shrunk) and the band's own
+    /// rest about the unshrunk `mean` model, shrunk with the band's evidence.
+    // Not inlined: one copy for the four bands (less flash on the boards).
+    #[inline(never)]
+    fn of_band(
+        model: &BandModel,
+        mean: &BandModel,
+        shared: &[[f32; CARDIOIDS]; 2],
+        shrinkage: f32,
+    ) -> Self {
+        if !(model.peaks > 0.0) {
+            return Self::IDENTITY;
+        }
+        // The band less the mean, about the ideal capsule.
+        let mut rest = *model;
+        for k in 0..CARDIOIDS {
+            rest.omni_part[k] += 0.5 - mean.omni_part[k];
+            rest.dipole_part[k] += 0.5 - mean.dipole_part[k];
+        }
+        // The shared deviations plus the band's own.
+        let mut d = *shared;
+        add_shrunk_deviations(&rest, shrinkage, &mut d);
+        let mut c = Self::IDENTITY;
+        for m in 0..CARDIOIDS {
+            let am = 0.5 + d[0][m];
+            let bm = 0.5 + d[1][m];
+            let half_inv = 0.5 / bm;
+            c.c1[m] = half_inv;
+            c.c0[m] = 0.5 - am * half_inv;
+        }
+        c
+    }
+}
+
+/// Adds to `out` the deviations of `model` from the ideal capsule — of its omni parts and of its
+/// dipole parts, each including the common gain — with each group shrunk by how far it clears its sampling noise
+/// `shrinkage`·dof/n (positive-part James–Stein; n the model's background peaks): the common gain
+/// (1 degree of freedom), the omni parts about their mean and the dipole parts about it (2 each).
+// Not inlined: one copy for the shared part and every band's rest (less flash on the boards).
+#[inline(never)]
+fn add_shrunk_deviations(model: &BandModel, shrinkage: f32, out: &mut [[f32; CARDIOIDS]; 2]) {
+    let n = model.peaks;
+    if !(n > 0.0) {
+        return;
+    }
+    let a = model.omni_part;
+    let mean = (a[0] + a[1] + a[2]) / 3.0;
+    let noise = shrinkage / n;
+    // The positive-part factor of a group of squared size `sq` and noise `noise`.
+    let factor = |sq: f32, noise: f32| {
+        if sq > 0.0 {
+            (1.0 - noise / sq).max(0.0)
+        } else {
+            0.0
+        }
+    };
+    let common = mean - 0.5;
+    let common = factor(3.0 * common * common, noise) * common;
+    let groups = [
+        (model.omni_part, 2.0),
+        (model.dipole_part, 2.0 * DIPOLE_EVIDENCE),
+    ];
+    for (out, (parts, dof)) in out.iter_mut().zip(groups) {
+        let d = parts.map(|v| v - mean);
+        let f = factor(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], noise * dof);
+        for m in 0..CARDIOIDS {
+            out[m] += common + f * d[m];
+        }
     }
 }
 
@@ -712,7 +754,11 @@ impl CapsuleCalibrationState {
     }
 
     fn update_corrections(&mut self) {
-        self.correction = Correction::of_bands(&self.accepted.bands, self.settings.shrinkage);
+        Correction::of_bands(
+            &mut self.correction,
+            &self.accepted.bands,
+            self.settings.shrinkage,
+        );
     }
 
     /// The accepted estimate.
@@ -1085,7 +1131,8 @@ mod tests {
             ..model
         }; CAL_BANDS];
         models[0].peaks = 30.0;
-        let c = Correction::of_bands(&models, 0.2);
+        let mut c = [Correction::IDENTITY; CAL_BANDS];
+        Correction::of_bands(&mut c, &models, 0.2);
         // The omni part each correction undoes: a = b·(1 − 2·c0) with the applied b = ½/c1.
         let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
         for band in 0..CAL_BANDS {
@@ -1107,7 +1154,9 @@ mod tests {
             models[band].omni_part = model.omni_part.map(|a| 1.0 - a);
             models[band].dipole_part = model.dipole_part.map(|b| 1.0 - b);
         }
-        for c in Correction::of_bands(&models, 0.2) {
+        let mut corrections = [Correction::IDENTITY; CAL_BANDS];
+        Correction::of_bands(&mut corrections, &models, 0.2);
+        for c in corrections {
             for m in 0..3 {
                 assert!(
                     (c.c1[m] - 1.0).abs() < 0.02 && c.c0[m].abs() < 0.02,
