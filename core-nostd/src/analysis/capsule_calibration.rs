@@ -61,7 +61,8 @@
 //!
 //! State: per band 20 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
-//! the correction; on background frames ten cross-products per peak and one band's solution.
+//! the correction; on background frames ten cross-products per peak, and every 16th background
+//! frame the four bands' solutions and corrections.
 
 use crate::noise_floor::{NoiseFloor, NoiseGate};
 use crate::power_ramp::power_ratio_from_db;
@@ -504,11 +505,10 @@ impl Correction {
     };
 
     /// The corrections for the bands' `models`, into `out`. Each group of deviations from the
-    /// ideal capsule — the common gain (1 degree of freedom), the omni parts about their mean and
-    /// the dipole parts about it (2 each) — is split into its mean over the bands (weighted by their evidence) and
-    /// each band's own rest, and each part is shrunk by how far it clears its sampling noise
-    /// `shrinkage`·dof/n (positive-part James–Stein): the shared part with the evidence of all
-    /// bands, the rest with its band's.
+    /// ideal capsule (see [`add_shrunk_deviations`]) is split into its mean over the bands
+    /// (weighted by their evidence) and each band's own rest, and each part is shrunk by how far it
+    /// clears its sampling noise: the shared part with the evidence of all bands, the rest with its
+    /// band's. Without evidence in any band every correction is the identity.
     fn of_bands(out: &mut [Self; CAL_BANDS], models: &[BandModel; CAL_BANDS], shrinkage: f32) {
         // The evidence-weighted mean model (the deviations are linear in the parts).
         let mut mean = BandModel {
@@ -519,8 +519,9 @@ impl Correction {
         for m in models {
             mean.add_weighted(m);
         }
-        let total = mean.peaks;
-        let inv = 1.0 / total;
+        // Without evidence in any band the mean is not finite, and unused: every band's correction
+        // is then the identity (`of_band`).
+        let inv = 1.0 / mean.peaks;
         for k in 0..CARDIOIDS {
             mean.omni_part[k] *= inv;
             mean.dipole_part[k] *= inv;
@@ -567,9 +568,10 @@ impl Correction {
 }
 
 /// Adds to `out` the deviations of `model` from the ideal capsule — of its omni parts and of its
-/// dipole parts, each including the common gain — with each group shrunk by how far it clears its sampling noise
-/// `shrinkage`·dof/n (positive-part James–Stein; n the model's background peaks): the common gain
-/// (1 degree of freedom), the omni parts about their mean and the dipole parts about it (2 each).
+/// dipole parts, each including the common gain — with each group shrunk by how far it clears its
+/// sampling noise `shrinkage`·dof/n (positive-part James–Stein; n the model's background peaks):
+/// the common gain (1 degree of freedom), the omni parts about their mean and the dipole parts
+/// about it (2 each).
 // Not inlined: one copy for the shared part and every band's rest (less flash on the boards).
 #[inline(never)]
 fn add_shrunk_deviations(model: &BandModel, shrinkage: f32, out: &mut [[f32; CARDIOIDS]; 2]) {
