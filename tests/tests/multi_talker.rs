@@ -30,9 +30,13 @@ fn scene(dir: &Path, name: &str, set: &str, extra: &[&str]) {
 }
 
 fn set_metrics(dir: &Path, set: &str) -> Metrics {
+    set_metrics_with(dir, set, LocatorConfig::default())
+}
+
+fn set_metrics_with(dir: &Path, set: &str, config: LocatorConfig) -> Metrics {
     let report = evaluate(
         dir,
-        LocatorConfig::default(),
+        config,
         ReferenceTable::ideal_5deg(),
         InputLayout::Cma1,
         2,
@@ -93,6 +97,66 @@ fn talkers_taking_turns_are_tracked_with_one_id_each() {
     assert!(m.mean_error_deg <= 2.0, "{m:?}");
     assert!(m.id_switches_per_min <= 1.0, "{m:?}");
     assert!(m.id_purity >= 0.97, "{m:?}");
+}
+
+/// The capsule flags shape the multi-talker scene too, and the tracks' peaks are corrected by the
+/// self-calibration: the same conversations as above through a mismatched array.
+#[test]
+fn talkers_taking_turns_are_tracked_through_an_imperfect_array() {
+    let dir = tempfile::tempdir().unwrap();
+    let imperfect = [
+        "--capsule-gain-db",
+        "1,-1,0.5",
+        "--capsule-beta",
+        "0.44,0.57,0.5",
+    ];
+    for seed in ["1", "2"] {
+        let mut args = vec![
+            "--talkers",
+            "2",
+            "--synth",
+            "12",
+            "--snr",
+            "6",
+            "--seed",
+            seed,
+            "--talker-source",
+            SPEECH[0],
+            "--talker-source",
+            SPEECH[1],
+        ];
+        args.extend_from_slice(&imperfect);
+        scene(dir.path(), &format!("two{seed}.wav"), "turns", &args);
+    }
+    let mut args = vec![
+        "--talkers",
+        "3",
+        "--synth",
+        "12",
+        "--snr",
+        "6",
+        "--seed",
+        "3",
+        "--azimuths",
+        "-120,0,110",
+    ];
+    args.extend_from_slice(&imperfect);
+    scene(dir.path(), "three.wav", "turns", &args);
+    // Measured: recall 99.4 %, precision 96.9 %, mean error 1.75°; without the self-calibration
+    // 88.1 %, 67.7 %, 13.5°.
+    let m = set_metrics(dir.path(), "turns");
+    assert!(m.recall >= 0.95, "{m:?}");
+    assert!(m.precision >= 0.90, "{m:?}");
+    assert!(m.mean_error_deg <= 3.0, "{m:?}");
+    assert!(m.id_switches_per_min <= 1.0, "{m:?}");
+    assert!(m.id_purity >= 0.97, "{m:?}");
+    let mut off = LocatorConfig::default();
+    off.capsule_calibration.enabled = false;
+    let m = set_metrics_with(dir.path(), "turns", off);
+    assert!(
+        m.mean_error_deg >= 6.0,
+        "the array is imperfect only if the uncorrected tracks miss: {m:?}"
+    );
 }
 
 #[test]

@@ -135,6 +135,8 @@ pub struct MultiTalkerSpec {
     pub peak_dbfs: f64,
     /// Seed of the schedule, the synthetic speech and the noise.
     pub seed: u64,
+    /// The capsules of the simulated array (`--capsule-gain-db`, `--capsule-beta`, `--beta-drift`).
+    pub array: crate::array_model::ArrayModel,
 }
 
 /// A synthesised multi-talker scene.
@@ -319,8 +321,7 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             }
         }
     }
-    let rendered =
-        crate::array_model::ArrayModel::default().render(&mix[0], &mix[1], &mix[2], spec.rate);
+    let rendered = spec.array.render(&mix[0], &mix[1], &mix[2], spec.rate);
     let peak = rendered
         .iter()
         .flat_map(|f| f.iter().map(|v| v.abs()))
@@ -461,6 +462,7 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
         snr_db: a.snr,
         peak_dbfs: a.peak_dbfs,
         seed: a.seed,
+        array: a.array.model()?,
     };
     let s = synthesize(&spec)?;
     write(
