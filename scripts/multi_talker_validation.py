@@ -246,7 +246,8 @@ def write_doc(doc, report, rooms, seeds, seed0, single_same, single, imperfect=N
         f"{min(r for _, r in rooms):.2f}–{max(r for _, r in rooms):.2f} s, talkers 1–2 m away and "
         "≥ 60° apart; matched within "
         f"{report['tolerance_deg']:.0f}°, collar {report['collar_s']} s "
-        f"(`scripts/multi_talker_validation.py OUT --seed {seed0} --seeds {seeds}`).",
+        f"(`scripts/multi_talker_validation.py OUT --seed {seed0} --seeds {seeds}"
+        + (" --imperfect DIR" if imperfect is not None else "") + "`).",
         "",
     ] + summary_table(report)
     if imperfect is not None:
