@@ -23,14 +23,14 @@ scenes where exactly one talker speaks (outside the 0.25 s collar): its mean err
 that talker is what the room leaves for any track. `--plots DIR` also draws every scene's tracks
 (`host-sim eval --plots`). `--imperfect DIR` also renders the same scenes through imperfect arrays
 (a draw per scene: cardioid gains within +-1 dB, beta within 0.42-0.58, every second scene a
-frequency-dependent beta) into DIR and scores them with the self-calibration on and off. The summary table goes into docs/multi-talker.md and README.md (between
-their markers).
+frequency-dependent beta) into DIR and scores them with the self-calibration on and off. The
+summary table goes into docs/multi-talker.md and README.md (between their markers).
 
 Needs Python 3 with numpy, scipy and pyroomacoustics and a release build of host-sim. Not part of
 the test suite.
 
-Usage: scripts/multi_talker_validation.py OUT_DIR [--seeds N] [--seed S] [--plots DIR] [--imperfect DIR]
-       [--doc docs/multi-talker.md] [--readme README.md]
+Usage: scripts/multi_talker_validation.py OUT_DIR [--seeds N] [--seed S] [--plots DIR]
+       [--imperfect DIR] [--doc docs/multi-talker.md] [--readme README.md]
 """
 
 import argparse
@@ -46,6 +46,7 @@ import scipy.io.wavfile as wavfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import ism_validation as ism  # noqa: E402
+import selfcal_validation as scv  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HOST_SIM = os.environ.get("HS", os.path.join(ROOT, "target", "release", "host-sim"))
@@ -105,15 +106,10 @@ def run(args, **kw):
 
 
 def capsule_flags(seed0, s, n):
-    """The capsule flags of an imperfect array (gains within +-1 dB, beta 0.42-0.58, every second
-    scene a frequency-dependent beta within +-0.1), drawn per scene apart from the room's draws."""
-    cr = np.random.default_rng([seed0, s, n, 77])
-    gains, betas = cr.uniform(-1.0, 1.0, 3), cr.uniform(0.42, 0.58, 3)
-    flags = ["--capsule-gain-db", ",".join(f"{x:.3f}" for x in gains),
-             "--capsule-beta", ",".join(f"{x:.3f}" for x in betas)]
-    if s % 2:
-        flags += ["--beta-drift", f"{cr.uniform(-0.1, 0.1):.3f}"]
-    return flags
+    """The capsule flags of an imperfect array, drawn as scripts/selfcal_validation.py draws them
+    (every second scene with a frequency-dependent beta), per scene apart from the room's draws."""
+    rng = np.random.default_rng([seed0, s, n, 77])
+    return scv.array_flags(scv.draw_array(rng, with_drift=s % 2 == 1))
 
 
 def build(out, seeds, seed0, imperfect=False):
