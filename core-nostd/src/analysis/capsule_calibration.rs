@@ -13,37 +13,38 @@
 //! X'_m = ½·W + ½·D_m = c1_m·X_m + c0_m·W,  c1_m = ½/b_m,  c0_m = ½ − ½·a_m/b_m.
 //!
 //! # Estimate
-//! In an isotropic diffuse field — the ambient noise and the late reverberation every room has —
-//! W, X and Y are mutually uncorrelated and E|D_m|² = κ·E|W|² (κ = ⅓ in 3-D). Then, from the
-//! cross-powers of the frames in which only the background is heard (frame power near the tracked
-//! noise floor), per frequency band:
+//! From the cross-powers of the frames in which only the background is heard (frame power near
+//! the tracked noise floor), per frequency band:
 //!
-//! * a_m = E[Re(X_m W*)] / E|W|² (the dipole part does not correlate with the omni);
-//! * R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n = κ·b_m·b_n·cos(φ_m − φ_n): on the diagonal the
-//!   dipole powers R_mm = κ·b_m², off it −½κ·b_m·b_n. The b_m come from the diagonal: a power is
-//!   measured with about a seventh of the relative sampling variance of the ratio of three
-//!   cross-powers, so a cold start's few seconds of background already give usable patterns.
-//!   Their common scale is not measurable from picked peaks (the peaks are where |W| stands out)
-//!   and does not matter for the direction: it is set so that Σb = Σa.
+//! * b_m, up to a common factor, from the regression of W on the three cardioids. The looks are
+//!   120° apart, so Σ_m D_m = 0 in *any* sound field, and W = Σ_m X_m/b_m / Σ_m a_m/b_m exactly:
+//!   the least-squares weights w of W on X_1…X_3 are (1/b_m)/(Σ a/b) whatever the field's
+//!   directions (an ideal array gives ⅔ each). No assumption about the background enters, so the
+//!   talker's reverberation in it does not bias the patterns. Their common scale does not matter
+//!   for the direction (it acts like a change of SNR, which the noisy references absorb): it is set
+//!   so that Σb = Σa.
+//! * a_m = E[Re(X_m W*)] / E|W|²: in an isotropic diffuse field — the ambient noise and the late
+//!   reverberation every room has — the dipole part does not correlate with the omni. The linear
+//!   structure cannot tell the omni parts' differences from a field whose dipole correlates with
+//!   the omni (a mean intensity), so here the field must be diffuse.
 //!
 //! The talker's reverberation lingers in the background and is not diffuse: it comes mostly from
 //! the talker's side. In a frame with a tracked talker at θ it adds to the omni parts a deviation
-//! along cos(θ − φ_m) and to the dipole powers one along cos 2(θ − φ_m); each frame's deviations
-//! (zero-mean over the three cardioids, a point in a plane) are therefore learned only across that
-//! pattern, and talkers heard from several places fill in the rest (a ridge keeps what was never
+//! along cos(θ − φ_m); each frame's deviations (zero-mean over the three cardioids, a point in a
+//! plane) are therefore learned only across that pattern, and talkers heard from several places fill in the rest (a ridge keeps what was never
 //! observed at the ideal capsule). The tracked θ is off now and then (a reflection, a slip), and
 //! each such frame lets some of that deviation through; frames in which the band has fallen to its
 //! floor (within 1 dB), where little reverberation is left, teach the whole deviation and so
 //! outweigh the leak.
 //!
-//! The cross-powers check the field: for an isotropic field every normalised R_mn / √(R_mm·R_nn)
-//! is −½ whatever the capsules, while a directional noise source (a fan, a loudspeaker) adds a
-//! rank-one part and capsule self-noise a diagonal one that move them. When they stray by more than
+//! The cross-powers check the field: with R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n (the dipole
+//! parts' cross-powers, κ·b_m·b_n·cos(φ_m − φ_n) in a diffuse field, κ = ⅓ in 3-D) every
+//! normalised R_mn / √(R_mm·R_nn) is −½ for an isotropic field whatever the capsules, while a
+//! directional noise source (a fan, a loudspeaker) adds a rank-one part and capsule self-noise a
+//! diagonal one that move them. When they stray by more than
 //! [`CapsuleCalibration::max_anisotropy`] the background is not diffuse, and the accepted estimate
 //! is kept as it was (no drift toward the noise source). Speech frames are never used, so a
-//! talker, static or moving, cannot pull the estimate. Only the ratios of b matter for the
-//! direction (a common factor is the same as a lower SNR, which the noisy references absorb), so an
-//! error in κ costs nothing.
+//! talker, static or moving, cannot pull the estimate.
 //!
 //! # Confidence
 //! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
@@ -59,7 +60,7 @@
 //! background peaks, is thus corrected with what the other bands learned. The reported
 //! confidence is n/(n + [`CONFIDENT_PEAKS`]).
 //!
-//! State: per band 20 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
+//! State: per band 15 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
 //! the correction; on background frames ten cross-products per peak, and every 16th background
 //! frame the four bands' solutions and corrections.
@@ -76,17 +77,11 @@ pub const CAL_BANDS: usize = 4;
 pub const CAL_BAND_EDGES_HZ: [f32; CAL_BANDS - 1] = [500.0, 1000.0, 2000.0];
 const _: () = assert!(CAL_BANDS == 4, "band_of_bin compares with three edges");
 
-/// How much more evidence the dipole parts' deviations need than the omni parts': their sampling
-/// variance per peak is about the omni parts', but early reflections of the talker from other
-/// directions than its own still bias the background's dipole powers (measured on the validation
-/// scenes and the eval folder, docs/self-calibration.md: less costs an ideal array in a room).
-const DIPOLE_EVIDENCE: f32 = 2.0;
-
 /// Background peaks per band at which the confidence is ½.
 pub const CONFIDENT_PEAKS: f32 = 1000.0;
 
-/// E|D_m|² / E|W|² assumed for the diffuse field (3-D isotropic): the dipole part's share of the
-/// omni power, ⅓.
+/// E|D_m|² / E|W|² of the diffuse field (3-D isotropic): the dipole part's share of the omni
+/// power, ⅓ (only the sums that stand for a restored estimate use it).
 pub const KAPPA: f32 = 1.0 / 3.0;
 
 /// The band (index into [`CapsuleEstimate::bands`]) that frequency `f_hz` falls in: the number of
@@ -263,9 +258,6 @@ struct BandSums {
     /// Normal equations of the omni parts' deviation z (in the horizontal plane) with each
     /// frame's component along its talker's direction left out: Σ w·P (xx, xy, yy), Σ w·P·z_f.
     plane: [f32; 5],
-    /// The same for the deviation of the dipole powers R_mm = κ·b_m², with each frame's component
-    /// along the pattern its talker's reverberation gives them left out.
-    dipole_plane: [f32; 5],
 }
 
 /// sin 120° = √3/2.
@@ -337,7 +329,6 @@ impl BandSums {
         xx: [0.0; 6],
         n: 0.0,
         plane: [0.0; 5],
-        dipole_plane: [0.0; 5],
     };
 
     /// Sums a model would give with unit omni power per peak (restoring a saved estimate).
@@ -348,54 +339,30 @@ impl BandSums {
             n * (a[i] * a[j] + cross * b[i] * b[j])
         };
         let z = to_plane(zero_mean(a));
-        let zd = to_plane(zero_mean(b.map(|v| KAPPA * v * v)));
         Self {
             ww: n,
             xw: a.map(|v| n * v),
             xx: [r(0, 0), r(1, 1), r(2, 2), r(0, 1), r(0, 2), r(1, 2)],
             n,
             plane: [n, 0.0, n, n * z[0], n * z[1]],
-            dipole_plane: [n, 0.0, n, n * zd[0], n * zd[1]],
         }
     }
 
-    /// Adds one frame's normal equations: its omni parts `xw / ww` and its dipole powers, the
-    /// power left after the omni parts `omni` of the current estimate, `|X_m − a_m·W|² / |W|²`
-    /// (the frame's own omni parts, from a few peaks, would take a share of it), with weight
-    /// `weight`; with `talker` (the tracked direction's cosine and
-    /// sine), only their components across the patterns the talker's reverberation, which leaks
-    /// into the background, gives them: along its direction for the omni parts, along twice its
-    /// angle (cos 2(θ − φ_m)) for the dipole powers.
-    fn add_plane(
-        &mut self,
-        frame: &Self,
-        weight: f32,
-        talker: Option<(f32, f32)>,
-        omni: &[f32; CARDIOIDS],
-    ) {
+    /// Adds one frame's normal equations: its omni parts `xw / ww`, with weight `weight`; with
+    /// `talker` (the tracked direction's cosine and sine), only their component across the
+    /// pattern the talker's reverberation, which leaks into the background, gives them: across
+    /// its direction, (−sin θ, cos θ).
+    fn add_plane(&mut self, frame: &Self, weight: f32, talker: Option<(f32, f32)>) {
         if !(frame.ww > 0.0) {
             return;
         }
         let inv = 1.0 / frame.ww;
         let a = frame.xw.map(|v| v * inv);
-        let r = [0, 1, 2].map(|m| {
-            let o = omni[m];
-            (frame.xx[m] - 2.0 * o * frame.xw[m]) * inv + o * o
-        });
-        // Across the direction θ: (−sin θ, cos θ); across cos 2(θ − φ_m), whose plane
-        // coordinates are (cos 2θ, −sin 2θ): (sin 2θ, cos 2θ).
-        let across = talker.map(|(c, s)| ((-s, c), (2.0 * c * s, c * c - s * s)));
         accumulate(
             &mut self.plane,
             to_plane(zero_mean(a)),
             weight,
-            across.map(|x| x.0),
-        );
-        accumulate(
-            &mut self.dipole_plane,
-            to_plane(zero_mean(r)),
-            weight,
-            across.map(|x| x.1),
+            talker.map(|(c, s)| (-s, c)),
         );
     }
 
@@ -410,7 +377,6 @@ impl BandSums {
         self.n = keep * self.n + other.n;
         for k in 0..5 {
             self.plane[k] = keep * self.plane[k] + other.plane[k];
-            self.dipole_plane[k] = keep * self.dipole_plane[k] + other.dipole_plane[k];
         }
     }
 
@@ -455,29 +421,49 @@ impl BandSums {
         }
     }
 
+    /// The dipole parts up to a common positive factor: the reciprocals of the weights w of the
+    /// least-squares regression of W on the three cardioids (Σ Re(X_m X_n*)·w_n = Σ Re(X_m W*),
+    /// solved by cofactors; w_m = (1/b_m)/Σ(a/b), see the module documentation); `None` when the
+    /// cardioids' cross-powers are singular or a weight is not positive.
+    fn dipole_ratios(&self) -> Option<[f32; CARDIOIDS]> {
+        let [m00, m11, m22, m01, m02, m12] = self.xx;
+        let c00 = m11 * m22 - m12 * m12;
+        let c01 = m02 * m12 - m01 * m22;
+        let c02 = m01 * m12 - m02 * m11;
+        let c11 = m00 * m22 - m02 * m02;
+        let c12 = m01 * m02 - m00 * m12;
+        let c22 = m00 * m11 - m01 * m01;
+        let det = m00 * c00 + m01 * c01 + m02 * c02;
+        if !(det > 0.0) || !det.is_finite() {
+            return None;
+        }
+        // det·w: the common factor 1/det does not change the ratios.
+        let v = self.xw;
+        let w = [
+            c00 * v[0] + c01 * v[1] + c02 * v[2],
+            c01 * v[0] + c11 * v[1] + c12 * v[2],
+            c02 * v[0] + c12 * v[1] + c22 * v[2],
+        ];
+        w.iter()
+            .all(|x| *x > 0.0 && x.is_finite())
+            .then(|| w.map(|x| 1.0 / x))
+    }
+
     /// The model of these sums, or `None` when they do not describe a plausible cardioid in a
     /// diffuse field.
     fn solve(&self) -> Option<BandModel> {
         if !(self.n > 0.0) {
             return None;
         }
-        let (a, diag, off) = self.residuals()?;
+        let (a, _, off) = self.residuals()?;
         // A diffuse background's dipole parts correlate negatively (R_mn = −½κ·b_m·b_n).
         if !off.iter().all(|v| *v < 0.0) {
             return None;
         }
-        // κ·b_m² = R_mm: their mean from the sums, their deviation from the dipole plane.
-        let mean_r = (diag[0] + diag[1] + diag[2]) / 3.0;
-        let dev_r = plane_deviation(&self.dipole_plane)?;
-        let r = [0, 1, 2].map(|m| mean_r + dev_r[m]);
-        if !r.iter().all(|v| *v > 0.0) {
-            return None;
-        }
-        let b = r.map(crate::fast_math::sqrtf);
-        // The peaks are the bins where |W| stands out, so E|W|² over them exceeds the field's and
-        // scales every b_m·b_n alike: only the ratios of b are measured. A common factor of the
-        // dipole parts acts like a change of SNR (the noisy references absorb it); it is set so
-        // that the patterns average a cardioid, Σb = Σa.
+        let b = self.dipole_ratios()?;
+        // Only the ratios of b are measured. A common factor of the dipole parts acts like a change
+        // of SNR (the noisy references absorb it); it is set so that the patterns average a
+        // cardioid, Σb = Σa.
         let scale = (a[0] + a[1] + a[2]) / (b[0] + b[1] + b[2]);
         let b = b.map(|v| v * scale);
         let mean = (a[0] + a[1] + a[2]) / 3.0;
@@ -592,10 +578,7 @@ fn add_shrunk_deviations(model: &BandModel, shrinkage: f32, out: &mut [[f32; CAR
     };
     let common = mean - 0.5;
     let common = factor(3.0 * common * common, noise) * common;
-    let groups = [
-        (model.omni_part, 2.0),
-        (model.dipole_part, 2.0 * DIPOLE_EVIDENCE),
-    ];
+    let groups = [(model.omni_part, 2.0), (model.dipole_part, 2.0)];
     for (out, (parts, dof)) in out.iter_mut().zip(groups) {
         let d = parts.map(|v| v - mean);
         let f = factor(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], noise * dof);
@@ -892,12 +875,7 @@ impl CapsuleCalibrationState {
                 // teaches the whole deviation, not only its part across the talker's patterns.
                 let quiet = p <= self.band_floor[band].floor() * self.quiet_ratio;
                 let talker = if quiet { None } else { talker };
-                s.add_plane(
-                    add,
-                    inv * add.ww,
-                    talker,
-                    &self.accepted.bands[band].omni_part,
-                );
+                s.add_plane(add, inv * add.ww, talker);
             }
             self.frame[band] = BandSums::ZERO;
         }
@@ -1064,8 +1042,9 @@ mod tests {
     #[test]
     fn a_talkers_reverberation_does_not_pull_the_estimate() {
         // A coherent part from the talker's direction in the background biases the raw omni parts
-        // and dipole powers toward it; with the talker's direction given, those components are
-        // not learned.
+        // toward it; with the talker's direction given, that component is not learned. The
+        // patterns, from the regression of W on the cardioids, hold in any field: they are not
+        // pulled even without the talker's direction.
         let mut st = fresh();
         feed(
             &mut st,
@@ -1090,8 +1069,11 @@ mod tests {
         );
         let pulled = blind.estimate().bands[1].omni_part[0] - 0.5;
         assert!(pulled > 0.05, "{pulled}");
-        let pulled = blind.estimate().bands[1].dipole_part[0] - 0.5;
-        assert!(pulled > 0.02, "{pulled}");
+        for band in blind.estimate().bands {
+            for m in 0..3 {
+                assert!((band.dipole_part[m] - 0.5).abs() < 0.002, "{band:?}");
+            }
+        }
     }
 
     #[test]
@@ -1198,13 +1180,10 @@ mod tests {
             // The plane's ridge shrinks a deviation by 2 %.
             assert!((m.omni_part[i] - 0.5 - dev / (1.0 + PLANE_RIDGE)).abs() < 1e-4);
         }
-        // The dipole powers' deviations shrink alike, then the patterns are scaled to Σb = Σa.
-        let power = saved.bands[1].dipole_part.map(|b| KAPPA * b * b);
-        let mean = power.iter().sum::<f32>() / 3.0;
-        let b = power.map(|p| libm::sqrtf(mean + (p - mean) / (1.0 + PLANE_RIDGE)));
-        let scale = 1.5 / b.iter().sum::<f32>();
+        // The patterns come back as they were (Σb = Σa = 1.5 already).
         for i in 0..3 {
-            assert!((m.dipole_part[i] - scale * b[i]).abs() < 1e-4, "{m:?}");
+            let b = saved.bands[1].dipole_part[i];
+            assert!((m.dipole_part[i] - b).abs() < 1e-4, "{m:?}");
         }
         // Nonsense is not restored.
         let mut bad = saved;
