@@ -14,6 +14,10 @@ Layout of OUT_DIR (each folder is an eval folder: 4-channel 16 kHz PCM16 WAVs, N
               dirnoiseNN     60 s static talker + pink noise from another place
                              (0 dB on the omni) + diffuse noise at 20 dB          set drift_dirnoise
               silenceNN      30 s of digital silence, then 20 s of talker, 6 dB   set drift_silence
+  selfnoise/imperfect, selfnoise/ideal
+              n20_000 …, n10_000 …  the short scenes again, with the capsules' own noise
+                             (`host-sim scene --self-noise`: white, independent, equal in the four
+                             capsules) 20 or 10 dB below the diffuse noise     sets selfnoise20, selfnoise10
 
 The manifest lists each long scene twice (the same WAV under long_late and long_early; `host-sim eval`
 scores every manifest line on its own). Drift scenes are scored over their whole talker time (per-scene
@@ -47,8 +51,9 @@ Not part of the test suite. Takes a few minutes with the defaults.
 
 Usage: cp target/release/host-sim /tmp/hs-scene
        scripts/selfcal_validation.py OUT_DIR [--long N] [--short M] [--drift K] [--seed S]
-                                     [--only long,short,drift]
-then   host-sim eval OUT_DIR/imperfect;  host-sim eval OUT_DIR/ideal;  host-sim eval OUT_DIR/drift
+                                     [--only long,short,drift,noise]
+then   host-sim eval OUT_DIR/imperfect;  host-sim eval OUT_DIR/ideal;  host-sim eval OUT_DIR/drift;
+       host-sim eval OUT_DIR/selfnoise/imperfect;  host-sim eval OUT_DIR/selfnoise/ideal
 """
 
 import argparse
@@ -77,7 +82,9 @@ PLACE_S = 10.0
 MIN_STEP_DEG = 40.0
 LATE_S = 40.0
 EARLY_S = 30.0
-PARTS = {"long": 1, "short": 2, "drift": 3}
+PARTS = {"long": 1, "short": 2, "drift": 3, "noise": 4}
+# Levels of the capsules' own noise in the noise part, dB relative to the diffuse room noise.
+SELF_NOISE_DB = [-20.0, -10.0]
 
 
 # ---------------------------------------------------------------- geometry and room responses
@@ -206,9 +213,10 @@ class Renderer:
         self.tmp = tmp
         self.calls = 0
 
-    def render(self, src, h, az, arrays, seed, snr=None, lead_s=LEAD_S):
+    def render(self, src, h, az, arrays, seed, snr=None, lead_s=LEAD_S, self_noise=None):
         """Renders the mono `src` through the response `h` (direct sound at `az`) once per capsule
-        model in `arrays` (same noise seed). Returns (list of float64 [n, 4] scenes, host-sim's
+        model in `arrays` (same noise seed), with the capsules' own noise `self_noise` dB below the
+        diffuse noise (`host-sim scene --self-noise`) if given. Returns (list of float64 [n, 4] scenes, host-sim's
         scoring window (from, to) in s, the talker's mean omni power over its active span)."""
         srcf = os.path.join(self.tmp, "src.wav")
         rirf = os.path.join(self.tmp, "rir.wav")
@@ -229,6 +237,8 @@ class Renderer:
                    f"--lead-in={lead_s}", "--format", "float", "--manifest", man, "--set", "x"]
             if snr is not None:
                 cmd.append(f"--snr={snr:.4f}")
+            if self_noise is not None:
+                cmd.append(f"--self-noise={self_noise}")
             subprocess.run(cmd + array_flags(array), check=True, capture_output=True)
             self.calls += 1
             rate, x = wavfile.read(out)
@@ -248,6 +258,8 @@ class Renderer:
                 # Check: the rest of the omni is host-sim's diffuse noise, whose power is the
                 # talker's power over its active span less the SNR (unit-RMS pink noise).
                 want = 0.0 if snr is None else power * 10.0 ** (-snr / 10.0)
+                if self_noise is not None:
+                    want *= 1.0 + 10.0 ** (self_noise / 10.0)
                 got = float(np.mean((x[:, 0] / gain - ref) ** 2))
                 if abs(got - want) > 0.1 * want + 1e-9 * power:
                     print(f"warning: noise power {got:.3g}, expected {want:.3g} (seed {seed})",
@@ -370,30 +382,50 @@ def build_long(out, args, clips, renderer):
               flush=True)
 
 
-def build_short(out, args, clips, renderer):
-    imp, ide = os.path.join(out, "imperfect"), os.path.join(out, "ideal")
+def short_draw(args, clips, i):
+    """The draws of short scene `i`: room, array, place, clip, noise seed, room response."""
+    rng = np.random.default_rng((args.seed, PARTS["short"], i))
+    room = draw_room(rng)
+    array = draw_array(rng, with_drift=(i % 2 == 1))
+    p = draw_place(rng, room)
+    clip = clips[int(rng.integers(len(clips)))]
+    seed = int(rng.integers(1, 2 ** 31 - 1))
+    return room, array, p, clip, seed, ambix_rir(room, p["pos_m"])
+
+
+def build_short(out, args, clips, renderer, self_noise=None):
+    """The short scenes into OUT/imperfect and OUT/ideal; with `self_noise` (dB below the diffuse
+    noise) the same scenes with the capsules' own noise into OUT/selfnoise, named nNN_III, set
+    selfnoiseNN (NN the level's magnitude)."""
+    if self_noise is None:
+        imp, ide = os.path.join(out, "imperfect"), os.path.join(out, "ideal")
+        prefix, set_name = "short", "short"
+    else:
+        imp, ide = os.path.join(out, "selfnoise", "imperfect"), os.path.join(out, "selfnoise", "ideal")
+        prefix, set_name = f"n{abs(self_noise):.0f}_", f"selfnoise{abs(self_noise):.0f}"
     for folder in (imp, ide):
-        clean(folder, "short")
+        os.makedirs(folder, exist_ok=True)
+        clean(folder, prefix)
     for i in range(args.short):
-        rng = np.random.default_rng((args.seed, PARTS["short"], i))
-        room = draw_room(rng)
-        array = draw_array(rng, with_drift=(i % 2 == 1))
-        p = draw_place(rng, room)
-        clip = clips[int(rng.integers(len(clips)))]
-        seed = int(rng.integers(1, 2 ** 31 - 1))
-        h = ambix_rir(room, p["pos_m"])
+        room, array, p, clip, seed, h = short_draw(args, clips, i)
         (x_imp, x_ide), (w0, w1), _ = renderer.render(clip, h, p["azimuth_deg"], [array, IDEAL],
-                                                      seed, 3.0)
+                                                      seed, 3.0, self_noise=self_noise)
         rows = [(0.0, p["azimuth_deg"], p["elevation_deg"], p["distance_m"])]
         scale = common_scale(x_imp, x_ide)
-        name = f"short{i:03d}"
+        name = f"{prefix}{i:03d}"
         for folder, x, arr in ((imp, x_imp, array), (ide, x_ide, IDEAL)):
-            write_scene(folder, name, x, scale, rows, [("short", w0, w1)],
+            write_scene(folder, name, x, scale, rows, [(set_name, w0, w1)],
                         {"kind": "short", "seed": [args.seed, PARTS["short"], i], "array": arr,
-                         "room": room_meta(room, 3.0),
+                         "self_noise_db": self_noise, "room": room_meta(room, 3.0),
                          "places": [place_meta(p, t_s=0.0, snr_db=3.0, seed=seed)],
                          "duration_s": round(len(x) / FS, 3)})
-    print(f"short: {args.short} scenes", flush=True)
+    print(f"{set_name}: {args.short} scenes", flush=True)
+
+
+def build_noise(out, args, clips, renderer):
+    """The short scenes again, with the capsules' own noise at each of SELF_NOISE_DB."""
+    for level in SELF_NOISE_DB:
+        build_short(out, args, clips, renderer, self_noise=level)
 
 
 def build_drift(out, args, clips, renderer):
@@ -510,8 +542,8 @@ def main():
     p.add_argument("--drift", type=int, default=2,
                    help="scenes of each drift kind: static, dirnoise, silence (default 2)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--only", default="long,short,drift",
-                   help="comma list of parts to (re)build: long, short, drift")
+    p.add_argument("--only", default="long,short,drift,noise",
+                   help="comma list of parts to (re)build: long, short, drift, noise")
     args = p.parse_args()
     only = [s.strip() for s in args.only.split(",") if s.strip()]
     if any(s not in PARTS for s in only):
@@ -519,12 +551,14 @@ def main():
     if not os.access(HOST_SIM, os.X_OK):
         sys.exit(f"no host-sim at {HOST_SIM} (cp target/release/host-sim /tmp/hs-scene, or set HS)")
     clips = load_speech()
-    folders = [os.path.join(args.out, d) for d in ("imperfect", "ideal", "drift")]
+    folders = [os.path.join(args.out, d)
+               for d in ("imperfect", "ideal", "drift", "selfnoise/imperfect", "selfnoise/ideal")]
     for d in folders:
         os.makedirs(d, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="selfcal-") as tmp:
         renderer = Renderer(tmp)
-        for part, build in (("long", build_long), ("short", build_short), ("drift", build_drift)):
+        for part, build in (("long", build_long), ("short", build_short), ("drift", build_drift),
+                            ("noise", build_noise)):
             if part in only:
                 build(args.out, args, clips, renderer)
     for d in folders:

@@ -37,11 +37,22 @@
 //! floor (within 1 dB), where little reverberation is left, teach the whole deviation and so
 //! outweigh the leak.
 //!
+//! The capsules' own (electrical) noise is not part of the field: in a quiet room the dipole part
+//! of the background, about a twelfth of the omni power, is soon buried in it. Every capsule
+//! signal is a combination of the three field components W, X and Y, so without that noise the
+//! 4×4 cross-power matrix of (W, X_1, X_2, X_3) is singular; white noise of equal power σ² in the
+//! four capsules adds σ² to all its eigenvalues. Its smallest eigenvalue is therefore σ², and
+//! every estimate here is made from the sums with σ² taken off their powers (the regression of W
+//! on the cardioids so becomes the total least-squares one). A band
+//! whose capsule noise is more than [`MAX_NOISE_SHARE`] times the field's dipole power does not
+//! learn (held, as below).
+//!
 //! The cross-powers check the field: with R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n (the dipole
 //! parts' cross-powers, κ·b_m·b_n·cos(φ_m − φ_n) in a diffuse field, κ = ⅓ in 3-D) every
 //! normalised R_mn / √(R_mm·R_nn) is −½ for an isotropic field whatever the capsules, while a
-//! directional noise source (a fan, a loudspeaker) adds a rank-one part and capsule self-noise a
-//! diagonal one that move them. When they stray by more than
+//! directional noise source (a fan, a loudspeaker) adds a rank-one part and capsule noise the
+//! eigenvalue above cannot remove (unequal in the capsules) a diagonal one that move them. When
+//! they stray by more than
 //! [`CapsuleCalibration::max_anisotropy`] the background is not diffuse, and the accepted estimate
 //! is kept as it was (no drift toward the noise source). Speech frames are never used, so a
 //! talker, static or moving, cannot pull the estimate.
@@ -63,7 +74,8 @@
 //! State: per band 15 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
 //! the correction; on background frames ten cross-products per peak, and every 16th background
-//! frame the four bands' solutions and corrections.
+//! frame the four bands' capsule noise (a 4×4 factorisation and three solves each), solutions and
+//! corrections.
 
 use crate::noise_floor::{NoiseFloor, NoiseGate};
 use crate::power_ramp::power_ratio_from_db;
@@ -305,6 +317,33 @@ fn accumulate(p: &mut [f32; 5], z: [f32; 2], weight: f32, across: Option<(f32, f
     }
 }
 
+/// Solves the symmetric 3×3 system (M − shift·I)·w = v by cofactors, M given as the `xx` sums
+/// ((0,0), (1,1), (2,2), (0,1), (0,2), (1,2)); `None` unless M − shift·I is positive definite (its
+/// leading minors positive) and the solution finite.
+// Not inlined: one copy for the regression and the noise's Newton steps (less flash on the boards).
+#[inline(never)]
+fn solve3(m: &[f32; 6], shift: f32, v: [f32; 3]) -> Option<[f32; 3]> {
+    let [m00, m11, m22, m01, m02, m12] = *m;
+    let (m00, m11, m22) = (m00 - shift, m11 - shift, m22 - shift);
+    let c00 = m11 * m22 - m12 * m12;
+    let c01 = m02 * m12 - m01 * m22;
+    let c02 = m01 * m12 - m02 * m11;
+    let c11 = m00 * m22 - m02 * m02;
+    let c12 = m01 * m02 - m00 * m12;
+    let c22 = m00 * m11 - m01 * m01;
+    let det = m00 * c00 + m01 * c01 + m02 * c02;
+    if !(m00 > 0.0) || !(c22 > 0.0) || !(det > 0.0) || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let w = [
+        (c00 * v[0] + c01 * v[1] + c02 * v[2]) * inv,
+        (c01 * v[0] + c11 * v[1] + c12 * v[2]) * inv,
+        (c02 * v[0] + c12 * v[1] + c22 * v[2]) * inv,
+    ];
+    w.iter().all(|x| x.is_finite()).then_some(w)
+}
+
 /// The zero-mean per-cardioid deviation that solves the normal equations `p` (with a ridge).
 fn plane_deviation(p: &[f32; 5]) -> Option<[f32; CARDIOIDS]> {
     let [xx, xy, yy, rx, ry] = *p;
@@ -384,6 +423,8 @@ impl BandSums {
     /// − a_m·a_n: the diagonal (0,0), (1,1), (2,2) and the pairs (0,1), (0,2), (1,2); `None` without
     /// omni power or with a diagonal that is not positive.
     #[allow(clippy::type_complexity)]
+    // Not inlined: one copy for its three callers (less flash on the boards).
+    #[inline(never)]
     fn residuals(&self) -> Option<([f32; CARDIOIDS], [f32; 3], [f32; 3])> {
         if !(self.ww > 0.0) {
             return None;
@@ -421,32 +462,72 @@ impl BandSums {
         }
     }
 
-    /// The dipole parts up to a common positive factor: the reciprocals of the weights w of the
-    /// least-squares regression of W on the three cardioids (Σ Re(X_m X_n*)·w_n = Σ Re(X_m W*),
-    /// solved by cofactors; w_m = (1/b_m)/Σ(a/b), see the module documentation); `None` when the
-    /// cardioids' cross-powers are singular or a weight is not positive.
-    fn dipole_ratios(&self) -> Option<[f32; CARDIOIDS]> {
-        let [m00, m11, m22, m01, m02, m12] = self.xx;
-        let c00 = m11 * m22 - m12 * m12;
-        let c01 = m02 * m12 - m01 * m22;
-        let c02 = m01 * m12 - m02 * m11;
-        let c11 = m00 * m22 - m02 * m02;
-        let c12 = m01 * m02 - m00 * m12;
-        let c22 = m00 * m11 - m01 * m01;
-        let det = m00 * c00 + m01 * c01 + m02 * c02;
-        if !(det > 0.0) || !det.is_finite() {
-            return None;
+    /// The power of the capsules' own noise in these sums. The four signals are combinations of
+    /// the three field components W, X and Y, so without noise W is exactly a combination of the
+    /// cardioids (see [`BandSums::dipole_ratios`]) and the 4×4 cross-power matrix of (W, X_1, X_2,
+    /// X_3) is singular whatever the field; white noise of equal power σ² in every capsule adds σ²
+    /// to its diagonal. σ² is then its smallest eigenvalue, the smallest root of the secular
+    /// equation g(σ²) = Σ|W|² − σ² − c·(M − σ²·I)⁻¹·c = 0 (M the cardioids' cross-powers, c their
+    /// cross-powers with W; g(0) is the regression's residual power). Found by three Newton steps
+    /// from 0 (g′ = −(1 + |w|²), w = (M − σ²·I)⁻¹·c the regression weights); g is concave, so the
+    /// first step lands at or above the root and the next come back down to it. 0 when the sums
+    /// give no positive value.
+    fn self_noise(&self) -> f32 {
+        let mut s2 = 0.0f32;
+        for _ in 0..3 {
+            let Some(w) = solve3(&self.xx, s2, self.xw) else {
+                break;
+            };
+            let fit = w[0] * self.xw[0] + w[1] * self.xw[1] + w[2] * self.xw[2];
+            let slope = 1.0 + w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+            let next = s2 + (self.ww - s2 - fit) / slope;
+            if !(next >= 0.0) || !next.is_finite() {
+                break;
+            }
+            s2 = next;
         }
-        // det·w: the common factor 1/det does not change the ratios.
-        let v = self.xw;
-        let w = [
-            c00 * v[0] + c01 * v[1] + c02 * v[2],
-            c01 * v[0] + c11 * v[1] + c12 * v[2],
-            c02 * v[0] + c12 * v[1] + c22 * v[2],
-        ];
-        w.iter()
-            .all(|x| *x > 0.0 && x.is_finite())
-            .then(|| w.map(|x| 1.0 / x))
+        s2
+    }
+
+    /// These sums without capsule noise of `noise` per peak: n·noise off the four powers, and the
+    /// omni parts' plane equations scaled up by what that noise took off each frame's omni parts
+    /// (a frame's X_m·W*/|W|² is the noise-free one times |W|²₀/|W|², the same for all m).
+    // Not inlined: one copy for the batch and the total (less flash on the boards).
+    #[inline(never)]
+    fn without_noise(&self, noise: f32) -> Self {
+        let mut out = *self;
+        let remove = noise * self.n;
+        if !(remove > 0.0) || !(self.ww > remove) {
+            return out;
+        }
+        out.ww -= remove;
+        for k in 0..CARDIOIDS {
+            out.xx[k] -= remove;
+        }
+        let undo = self.ww / out.ww;
+        out.plane[3] *= undo;
+        out.plane[4] *= undo;
+        out
+    }
+
+    /// The capsule noise `noise` per peak relative to the field's mean dipole power R_mm of these
+    /// (noise-free) sums; +∞ without usable sums.
+    fn noise_share(&self, noise: f32) -> f32 {
+        match self.residuals() {
+            Some((_, diag, _)) if self.ww > 0.0 => {
+                noise * self.n / self.ww / ((diag[0] + diag[1] + diag[2]) / 3.0)
+            }
+            _ => f32::INFINITY,
+        }
+    }
+
+    /// The dipole parts up to a common positive factor: the reciprocals of the weights w of the
+    /// least-squares regression of W on the three cardioids (Σ Re(X_m X_n*)·w_n = Σ Re(X_m W*);
+    /// w_m = (1/b_m)/Σ(a/b), see the module documentation); `None` when the cardioids'
+    /// cross-powers are singular or a weight is not positive.
+    fn dipole_ratios(&self) -> Option<[f32; CARDIOIDS]> {
+        let w = solve3(&self.xx, 0.0, self.xw)?;
+        w.iter().all(|x| *x > 0.0).then(|| w.map(|x| 1.0 / x))
     }
 
     /// The model of these sums, or `None` when they do not describe a plausible cardioid in a
@@ -621,6 +702,14 @@ pub struct CapsuleCalibrationState {
     correction: [Correction; CAL_BANDS],
     forget: f32,
 }
+
+/// Largest power of the capsules' own noise, relative to the background field's dipole power in
+/// a band, at which the band still learns: the field's share then rests on the difference of two
+/// nearly equal powers, and what the noise left in it (the four capsules' noise is not quite
+/// equal, nor the peaks' selection of it) becomes a capsule error (validation scenes with capsule
+/// noise 10 dB below the room noise, docs/self-calibration.md: 1 learns less on imperfect arrays,
+/// 4 and more cost ideal ones more).
+pub const MAX_NOISE_SHARE: f32 = 2.0;
 
 /// Confidence from which all-background frames are checked for a directional background.
 const DIRECTIONAL_CONFIDENCE: f32 = 0.3;
@@ -887,18 +976,28 @@ impl CapsuleCalibrationState {
         let keep = libm::powf(self.forget, self.batch_frames as f32);
         let mut held = false;
         for band in 0..CAL_BANDS {
-            if self.batch[band].anisotropy() > self.settings.max_anisotropy {
-                // A directional background in this band: drop its batch, keep its estimate.
+            let mut total = self.sums[band];
+            total.add_scaled(&self.batch[band], keep, 1.0);
+            // The capsules' own noise, per peak, from all the evidence (see `self_noise`).
+            let noise = if total.n > 0.0 {
+                total.self_noise() / total.n
+            } else {
+                0.0
+            };
+            let clean = total.without_noise(noise);
+            if self.batch[band].without_noise(noise).anisotropy() > self.settings.max_anisotropy
+                || clean.noise_share(noise) > MAX_NOISE_SHARE
+            {
+                // A directional background in this band, or one the capsules' own noise drowns:
+                // drop its batch, keep its estimate.
                 held = true;
                 self.batch[band] = BandSums::ZERO;
                 continue;
             }
-            let mut total = self.sums[band];
-            total.add_scaled(&self.batch[band], keep, 1.0);
             if merge {
                 self.sums[band] = total;
             }
-            if let Some(model) = total.solve() {
+            if let Some(model) = clean.solve() {
                 self.accepted.bands[band] = model;
             }
         }
@@ -940,6 +1039,35 @@ mod tests {
         frames: usize,
         seed: u32,
     ) {
+        feed_noisy(
+            st,
+            a,
+            b,
+            directional,
+            dir_deg,
+            talker,
+            directional_curve,
+            frames,
+            seed,
+            0.0,
+        );
+    }
+
+    /// [`feed`] with white noise of power `capsule_noise` (relative to the field's omni power) in
+    /// each of the four capsules.
+    #[allow(clippy::too_many_arguments)]
+    fn feed_noisy(
+        st: &mut CapsuleCalibrationState,
+        a: [f32; 3],
+        b: [f32; 3],
+        directional: f32,
+        dir_deg: f32,
+        talker: Option<f32>,
+        directional_curve: bool,
+        frames: usize,
+        seed: u32,
+        capsule_noise: f32,
+    ) {
         let mut rng = Lcg(seed);
         for _ in 0..frames {
             st.band_background = [true; CAL_BANDS];
@@ -960,6 +1088,14 @@ mod tests {
                     x * libm::cosf(l) + y * libm::sinf(l)
                 });
                 let c = [0, 1, 2].map(|m| w * a[m] + xs[m] * b[m]);
+                let (w, c) = if capsule_noise > 0.0 {
+                    (
+                        w + cn(&mut rng, capsule_noise),
+                        c.map(|v| v + cn(&mut rng, capsule_noise)),
+                    )
+                } else {
+                    (w, c)
+                };
                 st.correct(k, w, c);
             }
             st.end_frame(talker, directional_curve);
@@ -994,6 +1130,26 @@ mod tests {
         // An edge belongs to the band above it.
         let bands = [0.0, 499.9, 500.0, 999.0, 1000.0, 2000.0, 8000.0, f32::NAN];
         assert_eq!(bands.map(band_of_frequency), [0, 0, 1, 1, 2, 3, 3, 0]);
+    }
+
+    #[test]
+    fn capsule_noise_is_taken_off_before_learning() {
+        // White noise in each capsule at 0.05 of the omni power, about two thirds of the field's
+        // dipole power κ·b² ≈ 0.08: the raw cross-powers look anisotropic (the normalised ones
+        // ≈ −0.3 instead of −½), so without taking the noise off nothing would be learned.
+        let mut st = fresh();
+        feed_noisy(&mut st, A, B, 0.0, 0.0, None, false, 20_000, 5, 0.05);
+        let raw = st.sums[1].correlations().unwrap();
+        assert!(raw.iter().all(|r| *r > -0.4), "{raw:?}");
+        assert!(!st.estimate().held);
+        for band in st.estimate().bands {
+            for m in 0..3 {
+                assert!((band.omni_part[m] - A[m]).abs() < 0.015, "{band:?}");
+                assert!((band.dipole_part[m] - B[m]).abs() < 0.02, "{band:?}");
+            }
+        }
+        let noise = st.sums[1].self_noise() / st.sums[1].n;
+        assert!((noise - 0.05).abs() < 0.005, "{noise}");
     }
 
     #[test]

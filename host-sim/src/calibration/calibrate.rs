@@ -656,6 +656,7 @@ mod tests {
             betas: [0.45, 0.55, 0.5],
             beta_drift: 0.15,
             drift_corner_hz: 400.0,
+            self_noise_db: None,
         }
     }
 

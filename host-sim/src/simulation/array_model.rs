@@ -13,9 +13,14 @@
 //! always used, ½W + ½(X cos φ_m + Y sin φ_m), so ideal scenes stay bit-identical.
 
 use crate::error::{Result, SimError};
+use crate::signal::Rng;
 use cma_core::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS};
 use cma_core::{CARDIOIDS, CARDIOID_LOOK_DEG};
 use std::f64::consts::PI;
+
+/// Mixed into the scene seed for the capsules' own noise, so that it is independent of the
+/// diffuse noise drawn from the seed itself.
+const SELF_NOISE_SEED: u64 = 0x5e1f_401e_c0de_0001;
 
 /// Capsule model of the three cardioids.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,6 +33,10 @@ pub struct ArrayModel {
     pub beta_drift: f64,
     /// Corner frequency of the drift's low-pass, Hz.
     pub drift_corner_hz: f64,
+    /// The capsules' own noise: white, independent and of equal power in the four capsules, this
+    /// many dB relative to the scene's diffuse noise on the omni (to the talker's power in a scene
+    /// without diffuse noise); `None`: noiseless capsules.
+    pub self_noise_db: Option<f64>,
 }
 
 impl Default for ArrayModel {
@@ -45,10 +54,12 @@ impl ArrayModel {
             betas: [0.5; CARDIOIDS],
             beta_drift: 0.0,
             drift_corner_hz: 500.0,
+            self_noise_db: None,
         }
     }
 
-    /// True for the ideal model (renders with the original arithmetic).
+    /// True for the ideal model (renders with the original arithmetic; the capsules' own noise,
+    /// added apart by [`ArrayModel::add_self_noise`], does not count).
     #[must_use]
     pub fn is_ideal(&self) -> bool {
         self.gains_db == [0.0; CARDIOIDS]
@@ -80,19 +91,37 @@ impl ArrayModel {
         })
     }
 
-    /// Checks ranges: |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0.
+    /// Checks ranges: |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0, self-noise within ±60 dB.
     pub fn validate(&self) -> Result<()> {
         let ok = self.gains_db.iter().all(|g| g.abs() <= 20.0)
             && self.betas.iter().all(|b| (0.0..=1.0).contains(b))
             && self.beta_drift.abs() <= 1.0
             && self.drift_corner_hz > 0.0
-            && self.drift_corner_hz.is_finite();
+            && self.drift_corner_hz.is_finite()
+            && self.self_noise_db.is_none_or(|d| d.abs() <= 60.0);
         if ok {
             Ok(())
         } else {
             Err(SimError::Usage(format!(
-                "array model out of range (need |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0): {self:?}"
+                "array model out of range (need |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0, \
+                 |self-noise| ≤ 60 dB): {self:?}"
             )))
+        }
+    }
+
+    /// Adds the capsules' own noise ([`ArrayModel::self_noise_db`] relative to `reference_power`,
+    /// the diffuse noise's or the talker's power on the omni) to the four signals of `frames`, from
+    /// its own generator seeded by `seed` (the scene's other signals do not change with it).
+    pub fn add_self_noise(&self, frames: &mut [[f64; 4]], reference_power: f64, seed: u64) {
+        let Some(db) = self.self_noise_db else {
+            return;
+        };
+        let sd = (reference_power * 10f64.powf(db / 10.0)).sqrt();
+        let mut rng = Rng::new(seed ^ SELF_NOISE_SEED);
+        for f in frames.iter_mut() {
+            for v in f.iter_mut() {
+                *v += sd * rng.gaussian();
+            }
         }
     }
 
@@ -146,6 +175,10 @@ pub struct ArrayArgs {
     /// Corner frequency of --beta-drift, Hz.
     #[arg(long, default_value_t = 500.0)]
     pub drift_corner: f64,
+    /// The capsules' own noise (white, independent, equal in the four capsules), dB relative to
+    /// the diffuse noise on the omni (`--snr`), or to the talker without it; e.g. `-15`.
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg_values::decibels)]
+    pub self_noise: Option<f64>,
 }
 
 impl ArrayArgs {
@@ -164,6 +197,7 @@ impl ArrayArgs {
             betas: three(&self.capsule_beta, 0.5, "capsule-beta")?,
             beta_drift: self.beta_drift,
             drift_corner_hz: self.drift_corner,
+            self_noise_db: self.self_noise,
         };
         m.validate()?;
         Ok(m)
@@ -181,6 +215,7 @@ mod tests {
             betas: [0.3, 0.5, 0.5],
             beta_drift: 0.0,
             drift_corner_hz: 500.0,
+            self_noise_db: None,
         };
         // Plane wave from 180°: D_0 = −W, cardioid 0 = g·(1 − 2β)·W.
         let w = vec![1.0; 4];
@@ -191,6 +226,27 @@ mod tests {
         assert!((out[0][1] - want).abs() < 1e-12);
         assert_eq!(out[0][0], 1.0);
         assert!(ArrayModel::ideal().is_ideal() && !m.is_ideal());
+    }
+
+    #[test]
+    fn self_noise_has_its_level_and_is_independent_in_each_capsule() {
+        let mut frames = vec![[0.0; 4]; 40_000];
+        ArrayModel::ideal().add_self_noise(&mut frames, 2.0, 7);
+        assert!(frames.iter().all(|f| *f == [0.0; 4]));
+        let m = ArrayModel {
+            self_noise_db: Some(-10.0),
+            ..ArrayModel::ideal()
+        };
+        m.add_self_noise(&mut frames, 2.0, 7);
+        let n = frames.len() as f64;
+        for c in 0..4 {
+            let p = frames.iter().map(|f| f[c] * f[c]).sum::<f64>() / n;
+            assert!((p - 0.2).abs() < 0.01, "capsule {c}: {p}");
+            for d in c + 1..4 {
+                let r = frames.iter().map(|f| f[c] * f[d]).sum::<f64>() / n;
+                assert!(r.abs() < 0.01, "capsules {c}, {d}: {r}");
+            }
+        }
     }
 
     /// The self-calibration's model of the capsules renders the same signals: a_m·W + b_m·D_m.

@@ -321,7 +321,11 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             }
         }
     }
-    let rendered = spec.array.render(&mix[0], &mix[1], &mix[2], spec.rate);
+    let mut rendered = spec.array.render(&mix[0], &mix[1], &mix[2], spec.rate);
+    // Every talker has unit power over his speaking time, the diffuse noise is below that.
+    let reference = spec.snr_db.map_or(1.0, |snr| 10f64.powf(-snr / 10.0));
+    spec.array
+        .add_self_noise(&mut rendered, reference, spec.seed);
     let peak = rendered
         .iter()
         .flat_map(|f| f.iter().map(|v| v.abs()))

@@ -493,6 +493,9 @@ pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> ScenePar
         }
         None => vec![[0.0; 4]; total],
     };
+    let mut noise = noise;
+    let reference = talker_power * spec.snr_db.map_or(1.0, |snr| 10f64.powf(-snr / 10.0));
+    spec.array.add_self_noise(&mut noise, reference, spec.seed);
     let peak = talker
         .iter()
         .zip(&noise)
