@@ -58,6 +58,16 @@ fn noisy_scene(
     make_scene(dir, name, &args)
 }
 
+/// MAE of `wav` with the self-calibration on and off, for `features`.
+fn on_off(wav: &Path, features: &str) -> (f64, f64) {
+    let on = mae(&locate(wav, &["--features", features, "-q"]));
+    let off = mae(&locate(
+        wav,
+        &["--features", features, "--selfcal", "off", "-q"],
+    ));
+    (on, off)
+}
+
 #[test]
 fn self_calibration_learns_through_the_capsules_own_noise() {
     // Capsule noise 15 dB below the room's diffuse noise, as in a quiet room: it is about as
@@ -69,21 +79,13 @@ fn self_calibration_learns_through_the_capsules_own_noise() {
     // noise was taken off the estimate's cross-powers, on was 5.3°); ideal on 0.68° / 1.22°,
     // off 0.38° / 1.07°.
     for features in ["active", "magnitude"] {
-        let on = mae(&locate(&bad, &["--features", features, "-q"]));
-        let off = mae(&locate(
-            &bad,
-            &["--features", features, "--selfcal", "off", "-q"],
-        ));
+        let (on, off) = on_off(&bad, features);
         assert!(
             on < 2.5,
             "{features}: imperfect array, self-calibrated: {on:.2}°"
         );
         assert!(off > 4.0 * on, "{features}: on {on:.2}°, off {off:.2}°");
-        let on = mae(&locate(&good, &["--features", features, "-q"]));
-        let off = mae(&locate(
-            &good,
-            &["--features", features, "--selfcal", "off", "-q"],
-        ));
+        let (on, off) = on_off(&good, features);
         assert!(
             on < off + 0.5,
             "{features}: ideal array: on {on:.2}°, off {off:.2}°"
@@ -98,21 +100,13 @@ fn self_calibration_rescues_an_imperfect_array_and_leaves_an_ideal_one() {
     let good = scene(dir.path(), "ideal.wav", false);
     // Measured: imperfect on 0.87° (active) / off 18.2°; ideal on 0.34°, off 0.34°.
     for features in ["active", "magnitude"] {
-        let on = mae(&locate(&bad, &["--features", features, "-q"]));
-        let off = mae(&locate(
-            &bad,
-            &["--features", features, "--selfcal", "off", "-q"],
-        ));
+        let (on, off) = on_off(&bad, features);
         assert!(
             on < 3.0,
             "{features}: imperfect array, self-calibrated: {on:.2}°"
         );
         assert!(off > 2.0 * on, "{features}: on {on:.2}°, off {off:.2}°");
-        let on = mae(&locate(&good, &["--features", features, "-q"]));
-        let off = mae(&locate(
-            &good,
-            &["--features", features, "--selfcal", "off", "-q"],
-        ));
+        let (on, off) = on_off(&good, features);
         assert!(
             on < 1.5,
             "{features}: ideal array, self-calibrated: {on:.2}°"

@@ -1026,37 +1026,10 @@ mod tests {
     /// What a background gives: a diffuse field (plus a coherent source of relative power
     /// `directional` from `dir_deg`) through capsules with omni parts `a` and dipole parts `b`,
     /// one peak per band and frame, every band background; `talker` and `directional_curve` as
-    /// [`CapsuleCalibrationState::end_frame`] takes them.
+    /// [`CapsuleCalibrationState::end_frame`] takes them; white noise of power `capsule_noise`
+    /// (relative to the field's omni power) in each of the four capsules.
     #[allow(clippy::too_many_arguments)]
     fn feed(
-        st: &mut CapsuleCalibrationState,
-        a: [f32; 3],
-        b: [f32; 3],
-        directional: f32,
-        dir_deg: f32,
-        talker: Option<f32>,
-        directional_curve: bool,
-        frames: usize,
-        seed: u32,
-    ) {
-        feed_noisy(
-            st,
-            a,
-            b,
-            directional,
-            dir_deg,
-            talker,
-            directional_curve,
-            frames,
-            seed,
-            0.0,
-        );
-    }
-
-    /// [`feed`] with white noise of power `capsule_noise` (relative to the field's omni power) in
-    /// each of the four capsules.
-    #[allow(clippy::too_many_arguments)]
-    fn feed_noisy(
         st: &mut CapsuleCalibrationState,
         a: [f32; 3],
         b: [f32; 3],
@@ -1138,7 +1111,7 @@ mod tests {
         // dipole power κ·b² ≈ 0.08: the raw cross-powers look anisotropic (the normalised ones
         // ≈ −0.3 instead of −½), so without taking the noise off nothing would be learned.
         let mut st = fresh();
-        feed_noisy(&mut st, A, B, 0.0, 0.0, None, false, 20_000, 5, 0.05);
+        feed(&mut st, A, B, 0.0, 0.0, None, false, 20_000, 5, 0.05);
         let raw = st.sums[1].correlations().unwrap();
         assert!(raw.iter().all(|r| *r > -0.4), "{raw:?}");
         assert!(!st.estimate().held);
@@ -1155,7 +1128,7 @@ mod tests {
     #[test]
     fn learns_gains_and_patterns_in_a_diffuse_field() {
         let mut st = fresh();
-        feed(&mut st, A, B, 0.0, 0.0, None, false, 20_000, 3);
+        feed(&mut st, A, B, 0.0, 0.0, None, false, 20_000, 3, 0.0);
         for band in st.estimate().bands {
             for m in 0..3 {
                 assert!((band.omni_part[m] - A[m]).abs() < 0.01, "{band:?}");
@@ -1177,7 +1150,9 @@ mod tests {
     #[test]
     fn an_ideal_array_stays_uncorrected() {
         let mut st = fresh();
-        feed(&mut st, [0.5; 3], [0.5; 3], 0.0, 0.0, None, false, 5_000, 5);
+        feed(
+            &mut st, [0.5; 3], [0.5; 3], 0.0, 0.0, None, false, 5_000, 5, 0.0,
+        );
         let w = Complex32::new(0.3, -0.2);
         let x = [
             Complex32::new(0.1, 0.2),
@@ -1212,6 +1187,7 @@ mod tests {
             false,
             8_000,
             7,
+            0.0,
         );
         for band in st.estimate().bands {
             for m in 0..3 {
@@ -1221,7 +1197,7 @@ mod tests {
         }
         let mut blind = fresh();
         feed(
-            &mut blind, [0.5; 3], [0.5; 3], 0.3, 30.0, None, false, 8_000, 7,
+            &mut blind, [0.5; 3], [0.5; 3], 0.3, 30.0, None, false, 8_000, 7, 0.0,
         );
         let pulled = blind.estimate().bands[1].omni_part[0] - 0.5;
         assert!(pulled > 0.05, "{pulled}");
@@ -1240,7 +1216,18 @@ mod tests {
         let along =
             [0.0f32, 120.0, 240.0].map(|l| 0.5 + 0.05 * libm::cosf((30.0 - l).to_radians()));
         let learn = |st: &mut CapsuleCalibrationState| {
-            feed(st, along, [0.5; 3], 0.0, 0.0, Some(30.0), false, 8_000, 11);
+            feed(
+                st,
+                along,
+                [0.5; 3],
+                0.0,
+                0.0,
+                Some(30.0),
+                false,
+                8_000,
+                11,
+                0.0,
+            );
         };
         let mut above = fresh();
         learn(&mut above);
@@ -1309,10 +1296,10 @@ mod tests {
     #[test]
     fn a_directional_background_holds_the_estimate() {
         let mut st = fresh();
-        feed(&mut st, A, B, 0.0, 0.0, None, false, 5_000, 9);
+        feed(&mut st, A, B, 0.0, 0.0, None, false, 5_000, 9, 0.0);
         let before = *st.estimate();
         // A loud noise source whose frames' curves point at it.
-        feed(&mut st, A, B, 2.0, 70.0, None, true, 5_000, 10);
+        feed(&mut st, A, B, 2.0, 70.0, None, true, 5_000, 10, 0.0);
         assert!(st.estimate().held);
         assert_eq!(st.estimate().bands, before.bands);
     }
