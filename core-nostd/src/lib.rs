@@ -93,7 +93,7 @@ pub(crate) use analysis::fft_x86;
 pub use analysis::{
     capsule_calibration, direct_sound, features, frame_level, frame_spectra, peak_picker, spectrum,
 };
-pub use arith::{angle, fast_exp, fast_math};
+pub use arith::{angle, fast_exp, fast_math, trig};
 pub use baselines::{bformat, fdiv, intensity, tdiv};
 pub use formats::{capsule_estimate_file, capsule_estimate_record, table_file, wire};
 pub use frontend::{block_decimator, decimator, framer, front_end, input_guard};

@@ -3,3 +3,4 @@
 pub mod angle;
 pub mod fast_exp;
 pub mod fast_math;
+pub mod trig;

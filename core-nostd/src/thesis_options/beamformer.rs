@@ -149,7 +149,8 @@ impl BeamState {
 
 fn unit(deg: f32) -> [f32; 2] {
     let r = deg.to_radians();
-    [libm::cosf(r), libm::sinf(r)]
+    let (s, c) = crate::trig::sin_cos(r);
+    [c, s]
 }
 
 /// Forward and reverse-steered output of one sample frame.

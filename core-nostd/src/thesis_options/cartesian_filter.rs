@@ -33,8 +33,9 @@ impl CartesianFilter {
         if b.is_finite() && azimuth_deg.is_finite() {
             let b = b.clamp(0.0, 1.0);
             let a = azimuth_deg.to_radians();
-            self.p[0] = b * libm::cosf(a) + (1.0 - b) * self.p[0];
-            self.p[1] = b * libm::sinf(a) + (1.0 - b) * self.p[1];
+            let (s, c) = crate::trig::sin_cos(a);
+            self.p[0] = b * c + (1.0 - b) * self.p[0];
+            self.p[1] = b * s + (1.0 - b) * self.p[1];
         }
         self.current()
     }

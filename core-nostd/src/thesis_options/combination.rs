@@ -100,8 +100,9 @@ pub fn circular_mean_deg(angles: &[f32]) -> Option<f32> {
     let (mut s, mut c) = (0.0f32, 0.0f32);
     for a in angles {
         let r = a.to_radians();
-        s += libm::sinf(r);
-        c += libm::cosf(r);
+        let (sr, cr) = crate::trig::sin_cos(r);
+        s += sr;
+        c += cr;
     }
     if s == 0.0 && c == 0.0 {
         return None;

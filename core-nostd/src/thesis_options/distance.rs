@@ -31,7 +31,7 @@ pub fn proximity_features(azimuth_deg: f32, distance_m: f32, f_hz: f32) -> Featu
     };
     let a = azimuth_deg.to_radians();
     core::array::from_fn(|m| {
-        let g = 0.5 * libm::cosf(a - CARDIOID_LOOK_DEG[m].to_radians());
+        let g = 0.5 * crate::trig::cos(a - CARDIOID_LOOK_DEG[m].to_radians());
         // ½ + g·(1 − j/kr): real ½ + g, imaginary −g/kr
         let re = 0.5 + g;
         let im = -g * inv_kr;

@@ -264,7 +264,7 @@ fn unit(x: f32, y: f32) -> Option<(f32, f32)> {
 }
 
 fn cos_deg(a: f32) -> f32 {
-    libm::cosf(a * (core::f32::consts::PI / 180.0))
+    crate::trig::cos(a * (core::f32::consts::PI / 180.0))
 }
 
 impl MultiTrackState {
@@ -423,7 +423,7 @@ impl MultiTrackState {
         if let (Some((k, _)), Some((az, b))) = (leader, dominant) {
             let g = cfg.anchor_gain * b.clamp(0.0, 1.0);
             if g > 0.0 && az.is_finite() {
-                let (sy, sx) = libm::sincosf(az * (core::f32::consts::PI / 180.0));
+                let (sy, sx) = crate::trig::sin_cos(az * (core::f32::consts::PI / 180.0));
                 let s = &mut self.slots[k];
                 if s.x * sx + s.y * sy >= cos_gate {
                     if let Some((x, y)) = unit(s.x + g * (sx - s.x), s.y + g * (sy - s.y)) {
