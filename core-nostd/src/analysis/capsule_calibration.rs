@@ -66,10 +66,12 @@
 //! capsule's gain and pattern change little from band to band, while the errors of the bands'
 //! estimates (sampling noise, and on an ideal array in a room the talker's lingering
 //! reverberation, which differs from band to band) do not agree: so each group is split into its
-//! mean over the bands, which clears the noise of all the bands' evidence together, and each
-//! band's own rest, which must clear its band's. A cold start's low band, with the fewest
-//! background peaks, is thus corrected with what the other bands learned. The reported
-//! confidence is n/(n + [`CONFIDENT_PEAKS`]).
+//! mean over the bands, which clears the noise of all the bands' evidence together, and (for the
+//! dipole parts, which need no assumption about the field) each band's own rest, which must clear
+//! its band's. A cold start's low band, with the fewest background peaks, is thus corrected with
+//! what the other bands learned. The omni parts' evidence is also unequal across the plane —
+//! along a talker's direction only quiet frames teach — and each of its principal directions is
+//! shrunk with its own evidence. The reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
 //!
 //! State: per band 15 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
@@ -137,7 +139,7 @@ impl CapsuleCalibration {
         background_db: 3.0,
         directional_reliability: 0.5,
         memory_frames: 10_000.0,
-        shrinkage: 0.2,
+        shrinkage: 0.14,
         max_anisotropy: 0.05,
     };
 
@@ -344,17 +346,52 @@ fn solve3(m: &[f32; 6], shift: f32, v: [f32; 3]) -> Option<[f32; 3]> {
     w.iter().all(|x| x.is_finite()).then_some(w)
 }
 
-/// The zero-mean per-cardioid deviation that solves the normal equations `p` (with a ridge).
-fn plane_deviation(p: &[f32; 5]) -> Option<[f32; CARDIOIDS]> {
+/// The zero-mean per-cardioid deviation that solves the normal equations `p` (with a ridge), each
+/// principal direction of their evidence shrunk by the sampling noise its weaker evidence adds.
+///
+/// The normal equations of `n` background peaks hold evidence (their eigenvalues λ₁ ≥ λ₂) unequally
+/// spread over the plane: along a talker's direction only quiet frames teach. A direction's
+/// estimate then has the sampling noise of n·λ/λ̄ peaks (λ̄ their mean) instead of n, and its
+/// component is shrunk by the positive-part factor of that excess, `shrinkage`·(λ̄/λ − 1)/n (the
+/// noise of n peaks is left to [`add_shrunk_deviations`]). Without it, a cold start heard from one
+/// place applies the talker's leak along its direction to an ideal array (validation scenes,
+/// docs/self-calibration.md).
+// Not inlined: one copy for every caller (less flash on the boards).
+#[inline(never)]
+fn plane_deviation(p: &[f32; 5], n: f32, shrinkage: f32) -> Option<[f32; CARDIOIDS]> {
     let [xx, xy, yy, rx, ry] = *p;
-    let ridge = PLANE_RIDGE * 0.5 * (xx + yy);
-    let (xx, yy) = (xx + ridge, yy + ridge);
-    let det = xx * yy - xy * xy;
-    if !(det > 0.0) || !det.is_finite() {
+    let mean = 0.5 * (xx + yy);
+    let (rxx, ryy) = (xx + PLANE_RIDGE * mean, yy + PLANE_RIDGE * mean);
+    let det = rxx * ryy - xy * xy;
+    if !(det > 0.0) || !det.is_finite() || !(n > 0.0) {
         return None;
     }
-    let z = [(yy * rx - xy * ry) / det, (xx * ry - xy * rx) / det];
-    Some(from_plane(z))
+    let z = [(ryy * rx - xy * ry) / det, (rxx * ry - xy * rx) / det];
+    // Eigenvalues mean ± spread; the projector on the first direction is (P − λ₂·I)/(λ₁ − λ₂).
+    let spread = crate::fast_math::sqrtf(0.25 * (xx - yy) * (xx - yy) + xy * xy);
+    let (l1, l2) = (mean + spread, mean - spread);
+    if !(spread > 1e-6 * mean) || !(l2 > 0.0) {
+        return Some(from_plane(z));
+    }
+    let inv = 1.0 / (2.0 * spread);
+    let z1 = [
+        ((xx - l2) * z[0] + xy * z[1]) * inv,
+        (xy * z[0] + (yy - l2) * z[1]) * inv,
+    ];
+    let z2 = [z[0] - z1[0], z[1] - z1[1]];
+    // |from_plane(z)|² = 1.5·|z|².
+    let shrunk = |v: [f32; 2], l: f32| {
+        let sq = 1.5 * (v[0] * v[0] + v[1] * v[1]);
+        let noise = shrinkage / n * (mean / l - 1.0);
+        let f = if sq > 0.0 {
+            (1.0 - noise / sq).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        v.map(|x| f * x)
+    };
+    let (z1, z2) = (shrunk(z1, l1), shrunk(z2, l2));
+    Some(from_plane([z1[0] + z2[0], z1[1] + z2[1]]))
 }
 
 /// Ridge of the plane's normal equations, relative to their mean eigenvalue: a direction never
@@ -531,8 +568,8 @@ impl BandSums {
     }
 
     /// The model of these sums, or `None` when they do not describe a plausible cardioid in a
-    /// diffuse field.
-    fn solve(&self) -> Option<BandModel> {
+    /// diffuse field; `shrinkage` as in [`plane_deviation`].
+    fn solve(&self, shrinkage: f32) -> Option<BandModel> {
         if !(self.n > 0.0) {
             return None;
         }
@@ -548,7 +585,7 @@ impl BandSums {
         let scale = (a[0] + a[1] + a[2]) / (b[0] + b[1] + b[2]);
         let b = b.map(|v| v * scale);
         let mean = (a[0] + a[1] + a[2]) / 3.0;
-        let dev = plane_deviation(&self.plane)?;
+        let dev = plane_deviation(&self.plane, self.n, shrinkage)?;
         let model = BandModel {
             omni_part: [mean + dev[0], mean + dev[1], mean + dev[2]],
             dipole_part: b,
@@ -571,11 +608,15 @@ impl Correction {
         c0: [0.0; CARDIOIDS],
     };
 
-    /// The corrections for the bands' `models`, into `out`. Each group of deviations from the
-    /// ideal capsule (see [`add_shrunk_deviations`]) is split into its mean over the bands
-    /// (weighted by their evidence) and each band's own rest, and each part is shrunk by how far it
-    /// clears its sampling noise: the shared part with the evidence of all bands, the rest with its
-    /// band's. Without evidence in any band every correction is the identity.
+    /// The corrections for the bands' `models`, into `out`. The deviations from the ideal capsule
+    /// (see [`add_shrunk_deviations`]) are their mean over the bands (weighted by their evidence)
+    /// plus, for the dipole parts, each band's own rest; each part is shrunk by how far it clears
+    /// its sampling noise: the shared part with the evidence of all bands, the rest with its
+    /// band's. The omni parts have no band rest: theirs rest on the diffuse-field assumption, and
+    /// what the talker's reverberation leaves in them differs from band to band (on validation
+    /// scenes, band rests of the omni parts cost an ideal array 0.15° after a cold start and gained
+    /// an imperfect one nothing, frequency-dependent patterns included). Without evidence in any
+    /// band every correction is the identity.
     fn of_bands(out: &mut [Self; CAL_BANDS], models: &[BandModel; CAL_BANDS], shrinkage: f32) {
         // The evidence-weighted mean model (the deviations are linear in the parts).
         let mut mean = BandModel {
@@ -601,7 +642,7 @@ impl Correction {
     }
 
     /// The correction for one band's `model`: the `shared` deviations (shrunk) and the band's own
-    /// rest about the unshrunk `mean` model, shrunk with the band's evidence.
+    /// rest of the dipole parts about the unshrunk `mean` model, shrunk with the band's evidence.
     // Not inlined: one copy for the four bands (less flash on the boards).
     #[inline(never)]
     fn of_band(
@@ -613,10 +654,10 @@ impl Correction {
         if !(model.peaks > 0.0) {
             return Self::IDENTITY;
         }
-        // The band less the mean, about the ideal capsule.
+        // The band's dipole parts less the mean, about the ideal capsule.
         let mut rest = *model;
         for k in 0..CARDIOIDS {
-            rest.omni_part[k] += 0.5 - mean.omni_part[k];
+            rest.omni_part[k] = 0.5;
             rest.dipole_part[k] += 0.5 - mean.dipole_part[k];
         }
         // The shared deviations plus the band's own.
@@ -950,7 +991,8 @@ impl CapsuleCalibrationState {
         }
         let talker = talker_deg.map(|d| {
             let r = d.to_radians();
-            (libm::cosf(r), libm::sinf(r))
+            let (s, c) = crate::trig::sin_cos(r);
+            (c, s)
         });
         for band in 0..CAL_BANDS {
             let add = &self.frame[band];
@@ -997,7 +1039,7 @@ impl CapsuleCalibrationState {
             if merge {
                 self.sums[band] = total;
             }
-            if let Some(model) = clean.solve() {
+            if let Some(model) = clean.solve(self.settings.shrinkage) {
                 self.accepted.bands[band] = model;
             }
         }
@@ -1209,6 +1251,40 @@ mod tests {
     }
 
     #[test]
+    fn a_direction_heard_little_is_shrunk_with_its_own_evidence() {
+        // A talker at 30° for 1000 background frames, 20 of them quiet: along its direction only
+        // those 20 teach, and what they say (here a leak of 0.02) is shrunk with their evidence;
+        // a deviation heard from every direction is left as it is.
+        let (c, s) = (libm::cosf(0.5236), libm::sinf(0.5236));
+        let leak = 0.02;
+        let mut p = [0.0f32; 5];
+        for _ in 0..980 {
+            accumulate(&mut p, [leak * c, leak * s], 1.0, Some((-s, c)));
+        }
+        for _ in 0..20 {
+            accumulate(&mut p, [leak * c, leak * s], 1.0, None);
+        }
+        let peaks = 4000.0;
+        let along = |dev: [f32; CARDIOIDS]| {
+            let z = to_plane(dev);
+            z[0] * c + z[1] * s
+        };
+        let raw = along(plane_deviation(&p, peaks, 0.0).unwrap());
+        let shrunk =
+            along(plane_deviation(&p, peaks, CapsuleCalibration::DEFAULT.shrinkage).unwrap());
+        assert!(raw > 0.5 * leak, "{raw}");
+        assert!(shrunk.abs() < 0.1 * leak, "{shrunk}");
+        let mut everywhere = [0.0f32; 5];
+        for _ in 0..1000 {
+            accumulate(&mut everywhere, [leak * c, leak * s], 1.0, None);
+        }
+        let kept = along(
+            plane_deviation(&everywhere, peaks, CapsuleCalibration::DEFAULT.shrinkage).unwrap(),
+        );
+        assert!((kept - leak).abs() < 0.05 * leak, "{kept}");
+    }
+
+    #[test]
     fn quiet_frames_teach_the_deviation_along_the_talker() {
         // Omni parts that deviate along the talker's direction: background frames above the floor
         // cannot tell that from the talker's reverberation and leave it, frames at the floor
@@ -1317,7 +1393,9 @@ mod tests {
         saved.bands[1].peaks = 5000.0;
         st.restore(&saved);
         assert_eq!(st.estimate().bands[1], saved.bands[1]);
-        let m = st.sums[1].solve().unwrap();
+        let m = st.sums[1]
+            .solve(CapsuleCalibration::DEFAULT.shrinkage)
+            .unwrap();
         for i in 0..3 {
             let dev = saved.bands[1].omni_part[i] - 0.5;
             // The plane's ridge shrinks a deviation by 2 %.
