@@ -1255,7 +1255,7 @@ mod tests {
         // A talker at 30° for 1000 background frames, 20 of them quiet: along its direction only
         // those 20 teach, and what they say (here a leak of 0.02) is shrunk with their evidence;
         // a deviation heard from every direction is left as it is.
-        let (c, s) = (libm::cosf(0.5236), libm::sinf(0.5236));
+        let (s, c) = crate::trig::sin_cos(core::f32::consts::FRAC_PI_6);
         let leak = 0.02;
         let mut p = [0.0f32; 5];
         for _ in 0..980 {
