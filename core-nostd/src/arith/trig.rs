@@ -13,12 +13,20 @@ const PIO2_2: f32 = 4.837_513e-4;
 const PIO2_3: f32 = 7.549_79e-8;
 
 /// Sine and cosine of `x` (radians): `(sin x, cos x)`; NaN for a non-finite `x`. Accurate for
-/// |x| ≤ 10⁴ (see the module documentation).
+/// |x| ≤ 10⁴ (see the module documentation); beyond, still a point of the unit circle.
 #[must_use]
 pub fn sin_cos(x: f32) -> (f32, f32) {
     if !x.is_finite() {
         return (f32::NAN, f32::NAN);
     }
+    // Far outside the working range the reduction below would lose every bit (and overflow):
+    // bring such an argument within a turn first (the result is then a sine and cosine of some
+    // angle, as good as the argument's own precision allows).
+    let x = if x.abs() > 1.0e5 {
+        libm::fmodf(x, core::f32::consts::TAU)
+    } else {
+        x
+    };
     // Nearest multiple of π/2 (round half away from zero).
     let k = x * core::f32::consts::FRAC_2_PI;
     let k = if k >= 0.0 {
@@ -91,6 +99,10 @@ mod tests {
         let (s, c) = sin_cos(-core::f32::consts::PI);
         assert!(s.abs() < 1e-6 && (c + 1.0).abs() < 1e-7);
         assert!(sin(f32::NAN).is_nan() && cos(f32::INFINITY).is_nan());
+        for x in [1.0e5f32, -3.0e7, 1.0e30, -f32::MAX] {
+            let (s, c) = sin_cos(x);
+            assert!((s * s + c * c - 1.0).abs() < 1e-5, "{x}: {s} {c}");
+        }
         assert_eq!(cos(1.0), sin_cos(1.0).1);
         assert_eq!(sin(1.0), sin_cos(1.0).0);
     }
