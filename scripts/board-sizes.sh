@@ -76,16 +76,6 @@ for bin in firmware firmware-f446; do
 done
 
 if [ "${1:-}" = "--readme" ]; then
-  begin='<!-- board-sizes.sh: begin -->'
-  end='<!-- board-sizes.sh: end -->'
-  grep -q "$begin" "$README" && grep -q "$end" "$README" || {
-    echo "board-sizes.sh: markers not found in $README" >&2
-    exit 1
-  }
-  TABLE="$table" awk -v begin="$begin" -v end="$end" '
-    $0 == begin { print; print ENVIRON["TABLE"]; skip = 1; next }
-    $0 == end { skip = 0 }
-    !skip { print }' "$README" > "$README.tmp"
-  mv "$README.tmp" "$README"
+  echo "$table" | scripts/write-section.sh "$README" board-sizes.sh
 fi
 [ "$over" = 0 ]

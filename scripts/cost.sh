@@ -209,15 +209,7 @@ printf '| of which the multi-talker stage | %s | | |\n' "$(num $((multi - total)
 
 cat "$out"
 if [ "$write_readme" = 1 ]; then
-    begin='<!-- cost.sh: begin -->'
-    end='<!-- cost.sh: end -->'
-    grep -qxF "$begin" "$README" && grep -qxF "$end" "$README" ||
-        { echo "$README: markers '$begin' and '$end' not found" >&2; exit 1; }
-    awk -v b="$begin" -v e="$end" -v f="$out" '
-        $0 == b {print; while ((getline l < f) > 0) print l; skip = 1; next}
-        $0 == e {skip = 0}
-        !skip {print}' "$README" >"$README.tmp"
-    mv "$README.tmp" "$README"
+    scripts/write-section.sh "$README" cost.sh <"$out"
     echo "wrote the tables into $README"
 fi
 

@@ -67,15 +67,5 @@ if [ -e "$work/claim" ]; then
   exit 1
 fi
 if [ "${1:-}" = "--doc" ]; then
-  begin='<!-- table-sizes.sh: begin -->'
-  end='<!-- table-sizes.sh: end -->'
-  grep -q "$begin" "$DOC" && grep -q "$end" "$DOC" || {
-    echo "table-sizes.sh: markers not found in $DOC" >&2
-    exit 1
-  }
-  TABLE="$table" awk -v begin="$begin" -v end="$end" '
-    $0 == begin { print; print ENVIRON["TABLE"]; skip = 1; next }
-    $0 == end { skip = 0 }
-    !skip { print }' "$DOC" >"$DOC.tmp"
-  mv "$DOC.tmp" "$DOC"
+  echo "$table" | scripts/write-section.sh "$DOC" table-sizes.sh
 fi
