@@ -382,16 +382,22 @@ fn plane_deviation(p: &[f32; 5], n: f32, shrinkage: f32) -> Option<[f32; CARDIOI
     // |from_plane(z)|² = 1.5·|z|².
     let shrunk = |v: [f32; 2], l: f32| {
         let sq = 1.5 * (v[0] * v[0] + v[1] * v[1]);
-        let noise = shrinkage / n * (mean / l - 1.0);
-        let f = if sq > 0.0 {
-            (1.0 - noise / sq).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let noise = (shrinkage / n * (mean / l - 1.0)).max(0.0);
+        let f = shrink_factor(sq, noise);
         v.map(|x| f * x)
     };
     let (z1, z2) = (shrunk(z1, l1), shrunk(z2, l2));
     Some(from_plane([z1[0] + z2[0], z1[1] + z2[1]]))
+}
+
+/// The positive-part James–Stein factor of a group of deviations of squared size `sq` whose
+/// sampling noise is `noise` (≥ 0): 1 − noise/sq, at least 0 (0 for no deviation).
+fn shrink_factor(sq: f32, noise: f32) -> f32 {
+    if sq > 0.0 {
+        (1.0 - noise / sq).max(0.0)
+    } else {
+        0.0
+    }
 }
 
 /// Ridge of the plane's normal equations, relative to their mean eigenvalue: a direction never
@@ -690,20 +696,12 @@ fn add_shrunk_deviations(model: &BandModel, shrinkage: f32, out: &mut [[f32; CAR
     let a = model.omni_part;
     let mean = (a[0] + a[1] + a[2]) / 3.0;
     let noise = shrinkage / n;
-    // The positive-part factor of a group of squared size `sq` and noise `noise`.
-    let factor = |sq: f32, noise: f32| {
-        if sq > 0.0 {
-            (1.0 - noise / sq).max(0.0)
-        } else {
-            0.0
-        }
-    };
     let common = mean - 0.5;
-    let common = factor(3.0 * common * common, noise) * common;
+    let common = shrink_factor(3.0 * common * common, noise) * common;
     let groups = [(model.omni_part, 2.0), (model.dipole_part, 2.0)];
     for (out, (parts, dof)) in out.iter_mut().zip(groups) {
         let d = parts.map(|v| v - mean);
-        let f = factor(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], noise * dof);
+        let f = shrink_factor(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], noise * dof);
         for m in 0..CARDIOIDS {
             out[m] += common + f * d[m];
         }
