@@ -7,7 +7,8 @@
 //! (Cephes `sinf`/`cosf`): within 2 ulp of the correctly rounded value for |x| ≤ 10⁴, and the
 //! same bits on every target (plain `f32` arithmetic).
 
-/// π/2 in three parts, each with trailing zero bits so that `k`·part is exact for |k| < 2¹⁰.
+/// π/2 in three parts; the first two have 8 and 11 significant bits, so that `k`·part is exact
+/// for |k| < 2¹³ (|x| up to about 12 000), the third carries the rest.
 const PIO2_1: f32 = 1.570_312_5;
 const PIO2_2: f32 = 4.837_513e-4;
 const PIO2_3: f32 = 7.549_79e-8;
