@@ -22,7 +22,9 @@
 //!    [`MultiTrack::relative_on`] of the most active track's activity and
 //!    [`MultiTrack::own_off`] of its own peak activity are further thresholds: the reverberation of
 //!    one talker feeds the other tracks a fraction of his evidence, and a fixed hangover after an
-//!    utterance should not depend on how reverberant the room is.
+//!    utterance should not depend on how reverberant the room is. A track whose evidence falls
+//!    and whose activity is below [`MultiTrack::tail_off`] of its peak ends its activity even
+//!    when it is the loudest (the end of the last talker's utterance).
 //!    Its direction moves towards the mean direction of its peaks by
 //!    [`MultiTrack::azimuth_gain`]·E, and, when it is the most active track and the single-azimuth
 //!    estimate lies within the gate, towards that estimate by [`MultiTrack::anchor_gain`]·b (the
@@ -73,10 +75,16 @@ pub struct MultiTrack {
     /// peaks of one talker give the silent talkers' tracks some evidence too, a fraction of his.
     pub relative_on: f32,
     /// Share of the track's own peak activity (a maximum that decays by `peak_pole` per frame)
-    /// below which it becomes inactive: the hangover after an utterance is then about
-    /// ln(share)/ln(`activity_pole`) frames whatever the room (reverberation lowers every
-    /// activity).
+    /// below which a track whose activity is under the turn-on threshold becomes inactive
+    /// (reverberation lowers every activity, so a fixed `active_off` would hold a quiet talker's
+    /// track longer in a reverberant room).
     pub own_off: f32,
+    /// Share of the track's own peak activity below which a track whose evidence is falling
+    /// becomes inactive, loudest or not: the hangover after the last talker's utterance is then
+    /// about ln(share)/ln(`activity_pole`) frames instead of the time its activity takes to fall
+    /// to `active_on` (measured: 0.3 s and more in rooms of little reverberation, most of it
+    /// past the scoring collar; 0.15 keeps the pauses inside an utterance active).
+    pub tail_off: f32,
     /// Pole of the decay of a track's peak activity, per frame.
     pub peak_pole: f32,
     /// Gain of the move towards the mean direction of the track's peaks, per unit evidence.
@@ -117,6 +125,7 @@ impl MultiTrack {
         active_off: 0.03,
         relative_on: 0.4,
         own_off: 0.3,
+        tail_off: 0.15,
         peak_pole: 0.998,
         azimuth_gain: 0.3,
         anchor_gain: 0.3,
@@ -143,6 +152,7 @@ impl MultiTrack {
             && unit(self.anchor_gain)
             && unit(self.relative_on)
             && unit(self.own_off)
+            && unit(self.tail_off)
             && pole(self.peak_pole)
             && self.active_off >= 0.0
             && self.active_off <= self.active_on
@@ -385,11 +395,16 @@ impl MultiTrackState {
             }
             let evidence = (acc[k].2 * scale).min(1.0);
             let on = cfg.active_on.max(cfg.relative_on * loudest);
+            let own = cfg.own_off * s.peak;
             let off = cfg
                 .active_off
                 .max(cfg.relative_on * hysteresis * loudest)
-                .max(cfg.own_off * s.peak);
-            if s.activity >= on {
+                .max(own);
+            // Falling (this frame's evidence is below its average) and below `tail_off` of its own
+            // peak: the end of an utterance, even when no other track is louder (`relative_on` and
+            // `own_off` only let a track go once its activity is below `active_on`).
+            let fading = evidence < s.activity && s.activity < cfg.tail_off * s.peak;
+            if s.activity >= on && !fading {
                 s.active = true;
             } else if s.activity < off {
                 s.active = false;
@@ -606,6 +621,39 @@ mod tests {
             }
         }
         assert_eq!(ids, [1, 2, 3]);
+    }
+
+    #[test]
+    fn the_last_talker_s_track_ends_a_fixed_time_after_the_utterance() {
+        let cfg = MultiTrack::DEFAULT;
+        let mut s = MultiTrackState::new();
+        for _ in 0..80 {
+            frame(&mut s, &[60.0; 10], 1.0);
+        }
+        assert_eq!(active(&s), 1);
+        // The activity falls by `activity_pole` per silent frame: below `tail_off` of its peak
+        // after ln(tail_off)/ln(pole) frames (18), long before it reaches `active_on` (28).
+        let hangover = (libm::logf(cfg.tail_off) / libm::logf(cfg.activity_pole)) as usize;
+        let to_floor = (libm::logf(cfg.active_on) / libm::logf(cfg.activity_pole)) as usize;
+        assert!(hangover + 5 < to_floor);
+        for i in 0..hangover + 2 {
+            frame(&mut s, &[], 0.0);
+            if i + 2 < hangover {
+                assert_eq!(
+                    active(&s),
+                    1,
+                    "a short pause keeps the talker active (frame {i})"
+                );
+            }
+        }
+        assert_eq!(active(&s), 0, "the talker has stopped");
+        // The talker speaks again: active at once, same ID.
+        for _ in 0..3 {
+            frame(&mut s, &[60.0; 10], 1.0);
+        }
+        let t = track_near(&s, 60.0).expect("the talker's track");
+        assert!(t.active);
+        assert_eq!(t.id, 1);
     }
 
     #[test]
