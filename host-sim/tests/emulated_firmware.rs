@@ -43,6 +43,18 @@ const MONITOR_IDLE_S: &str = "8";
 /// Largest stack high-water mark of the application on the emulated board that the test accepts.
 const STACK_LIMIT_BYTES: u32 = 8 * 1024;
 
+/// The emulated-board tests of this file run one at a time: QEMU emits frames as fast as the host
+/// emulates them, and a monitor starved of CPU by a second run lets the pty fill, which the board
+/// rightly takes for a stalled UART (frames dropped and counted, so the recording differs).
+static EMULATOR: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Holds [`EMULATOR`] (a test that failed while holding it does not stop the other).
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    EMULATOR
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -446,6 +458,7 @@ fn scene(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
 
 #[test]
 fn emulated_firmware_matches_the_host_and_survives_faults() {
+    let _emulator = one_at_a_time();
     if !emulator_ready() {
         return;
     }
@@ -641,6 +654,7 @@ fn records(store: &Path) -> Vec<Record> {
 
 #[test]
 fn emulated_firmware_keeps_its_estimate_across_power_cycles() {
+    let _emulator = one_at_a_time();
     if !emulator_ready() {
         return;
     }
