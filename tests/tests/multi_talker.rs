@@ -93,7 +93,9 @@ fn talkers_taking_turns_are_tracked_with_one_id_each() {
     turn_conversations(dir.path(), &[]);
     let m = set_metrics(dir.path(), "turns");
     assert!(m.recall >= 0.95, "{m:?}");
-    assert!(m.precision >= 0.88, "{m:?}");
+    // Measured 99.1 %: the last talker's track ends about 0.3 s after him (96.7 % while the
+    // loudest track stayed active until its activity fell to `active_on`).
+    assert!(m.precision >= 0.98, "{m:?}");
     assert!(m.mean_error_deg <= 2.0, "{m:?}");
     assert!(m.id_switches_per_min <= 1.0, "{m:?}");
     assert!(m.id_purity >= 0.97, "{m:?}");
