@@ -76,9 +76,9 @@ pub struct MultiTrack {
     /// Share of the most active track's activity a track needs to become active (and
     /// `active_off / active_on` of that share to stay active): the reverberation and the scattered
     /// peaks of one talker give the silent talkers' tracks some evidence too, a fraction of his
-    /// (measured: 0.4 left two talkers speaking at once, whose shares of the peaks swing, active
-    /// 1–2 points of recall less; 0.3 lets the reverberation of three-way conversations activate
-    /// silent tracks: precision −1.5 points).
+    /// (measured: 0.4 cost two talkers speaking at once, whose shares of the peaks swing, 1–2
+    /// points of recall; 0.3 let the reverberation of three-way conversations activate silent
+    /// tracks: precision −1.5 points).
     pub relative_on: f32,
     /// Share of the track's own peak activity (a maximum that decays by `peak_pole` per frame)
     /// below which a track whose activity is under the turn-on threshold becomes inactive
@@ -254,9 +254,8 @@ pub struct MultiTrackState {
     candidates: [Candidate; MAX_CANDIDATES],
     next_id: u16,
     /// Bits of the gate, preference, separation and estimate-birth angles whose cosines `cosines`
-    /// holds (`libm`'s
-    /// cosine costs about 2000 instructions on the Cortex-M4F: once per configuration, not per
-    /// frame).
+    /// holds (`libm`'s cosine costs about 2000 instructions on the Cortex-M4F: once per
+    /// configuration, not per frame).
     cosine_key: [u32; 4],
     cosines: [f32; 4],
 }
@@ -423,8 +422,8 @@ impl MultiTrackState {
                 .max(cfg.relative_on * hysteresis * loudest)
                 .max(own);
             // Falling (this frame's evidence is below its average) and below `tail_off` of its own
-            // peak: the end of an utterance, even when no other track is louder (`relative_on` and
-            // `own_off` only let a track go once its activity is below `active_on`).
+            // peak: the end of an utterance. `off` only lets a track go once its activity is below
+            // `on`, and the loudest track's is not until it falls to `active_on`.
             let fading = evidence < s.activity && s.activity < cfg.tail_off * s.peak;
             if s.activity >= on && !fading {
                 s.active = true;
