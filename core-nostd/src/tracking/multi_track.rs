@@ -346,7 +346,7 @@ impl MultiTrackState {
             self.cosine_key = key;
             self.cosines = angles.map(cos_deg);
         }
-        let [cos_gate, cos_preference, _, _] = self.cosines;
+        let [cos_gate, cos_preference, _, cos_far] = self.cosines;
         let preference = 1.0 - cos_preference;
         let total: f32 = peaks
             .iter()
@@ -478,7 +478,6 @@ impl MultiTrackState {
         // weak or scattered (far away, in a reverberant room) is then born all the same.
         if let Some((sx, sy, b)) = estimate {
             let mass = cfg.estimate_birth_gain * b * gate;
-            let cos_far = self.cosines[3];
             if mass > 0.0
                 && !self
                     .slots
