@@ -22,6 +22,8 @@ fn scene() -> Vec<[f32; 4]> {
         peak_dbfs: -3.0,
         seed: 9,
         array: Default::default(),
+        noise_sources: Vec::new(),
+        source_room: host_sim::noise_source::SourceRoom::Free,
     };
     synthesize(&spec).frames
 }

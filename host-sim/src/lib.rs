@@ -23,7 +23,7 @@ pub use io::{
     stdout_text, table_io, text_file, wav_io,
 };
 pub use localization::{beam, locate};
-pub use simulation::{array_model, multi_talker_scene, scene, signal};
+pub use simulation::{array_model, multi_talker_scene, noise_source, room, scene, signal};
 
 use clap::{CommandFactory, FromArgMatches, Subcommand};
 use error::{Result, SimError};

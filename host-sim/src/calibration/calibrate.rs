@@ -804,6 +804,8 @@ mod tests {
                 peak_dbfs: -3.0,
                 seed: i as u64 + 11,
                 array: *model,
+                noise_sources: Vec::new(),
+                source_room: crate::noise_source::SourceRoom::Free,
             };
             let s = synthesize(&spec);
             let rec = Recording {

@@ -2,7 +2,7 @@
 
 use crate::error::{Result, SimError};
 use crate::wav_io::OutFormat;
-use crate::{arg_values, array_model, scene};
+use crate::{arg_values, array_model, noise_source, room, scene, signal};
 use std::path::PathBuf;
 
 /// `host-sim scene`.
@@ -38,6 +38,20 @@ pub struct SceneArgs {
     /// Measured first-order room response (AmbiX W, Y, Z, X), rotated to the talker azimuth.
     #[arg(long)]
     pub rir: Option<PathBuf>,
+    /// A shoebox room by the image-source method, `LxWxH:RT60` in metres and seconds (e.g.
+    /// `6x5x3:0.45`): the array placed from --seed at least 1 m from the walls, the talker at
+    /// --distance (instead of a measured --rir).
+    #[arg(long, conflicts_with = "rir")]
+    pub room: Option<String>,
+    /// Talker distance from the array in a --room, m.
+    #[arg(long, value_parser = arg_values::talker_distance, default_value_t = 1.5, requires = "room")]
+    pub distance: f64,
+    /// A directional noise source (repeatable): `KIND[,az=DEG][,el=DEG][,dist=M][,level=DB][,on=S][,off=S]`,
+    /// KIND one of fan, projector, vent, hum, white, babble; level relative to the talker on the
+    /// omni (default −20 dB), rendered through the same room as the talker (--room, --rir or free
+    /// field); e.g. `--noise-source fan,az=40,el=20,level=-18,on=40`. Written to NAME.noise.csv.
+    #[arg(long = "noise-source", allow_hyphen_values = true)]
+    pub noise_sources: Vec<String>,
     /// The room response is N3D rather than SN3D.
     #[arg(long)]
     pub rir_n3d: bool,
@@ -97,11 +111,12 @@ pub fn run(a: &SceneArgs) -> Result<()> {
             ))
         }
     };
-    let room = a
-        .rir
-        .as_deref()
-        .map(|p| scene::RoomResponse::read(p, a.rate, a.rir_n3d, a.rir_length, a.rir_direct))
-        .transpose()?;
+    let noise_sources = a
+        .noise_sources
+        .iter()
+        .map(|s| noise_source::NoiseSource::parse(s))
+        .collect::<Result<Vec<_>>>()?;
+    let (room, source_room) = rooms(a, motion.azimuth_at(0.0))?;
     let spec = scene::SceneSpec {
         source,
         rate: a.rate,
@@ -112,6 +127,8 @@ pub fn run(a: &SceneArgs) -> Result<()> {
         peak_dbfs: a.peak_dbfs,
         seed: a.seed,
         array: a.array.model()?,
+        noise_sources,
+        source_room,
     };
     let s = scene::synthesize(&spec);
     scene::write_scene(
@@ -120,6 +137,62 @@ pub fn run(a: &SceneArgs) -> Result<()> {
         a.format,
         a.manifest.as_deref().map(|m| (m, a.set.as_str())),
     )?;
+    write_noise_truth(&a.out, &spec.noise_sources)?;
     eprintln!("{}", scene::written_line(&s, &a.out, a.manifest.as_deref()));
     Ok(())
+}
+
+/// The talker's room response and the room of the noise sources: a shoebox (--room; the talker at
+/// `talker_azimuth_deg`, --distance away, at 1.2–1.7 m height), a measured response (--rir) or free field.
+pub(crate) fn rooms(
+    a: &SceneArgs,
+    talker_azimuth_deg: f64,
+) -> Result<(Option<scene::RoomResponse>, noise_source::SourceRoom)> {
+    if let Some(spec) = &a.room {
+        let shoebox = room::ShoeBox::parse(spec)?;
+        let array = shoebox.array_position(a.seed);
+        let height = 1.2 + 0.5 * signal::Rng::new(a.seed ^ 0x7461_6c6b).uniform();
+        let elevation = ((height - array[2]) / a.distance)
+            .clamp(-1.0, 1.0)
+            .asin()
+            .to_degrees();
+        let talker = shoebox.place(array, talker_azimuth_deg, elevation, a.distance);
+        let length = a.rir_length.min(1.5 * shoebox.rt60).max(0.1);
+        let response = shoebox.response(array, talker, a.rate, length);
+        let source_room = noise_source::SourceRoom::ShoeBox {
+            room: shoebox,
+            array,
+            length_s: length,
+        };
+        return Ok((Some(response), source_room));
+    }
+    let room = a
+        .rir
+        .as_deref()
+        .map(|p| scene::RoomResponse::read(p, a.rate, a.rir_n3d, a.rir_length, a.rir_direct))
+        .transpose()?;
+    let source_room = match &room {
+        Some(r) => noise_source::SourceRoom::Measured(r.clone()),
+        None => noise_source::SourceRoom::Free,
+    };
+    Ok((room, source_room))
+}
+
+/// Writes the noise sources' truth next to the scene (`NAME.noise.csv`), when there are any.
+pub(crate) fn write_noise_truth(
+    out: &std::path::Path,
+    sources: &[noise_source::NoiseSource],
+) -> Result<()> {
+    if sources.is_empty() {
+        return Ok(());
+    }
+    let mut text = String::from("kind,azimuth_deg,elevation_deg,distance_m,level_db,on_s,off_s\n");
+    for s in sources {
+        text.push_str(&s.truth_row());
+        text.push('\n');
+    }
+    let path = out.with_extension("noise.csv");
+    crate::wav_io::write_atomically(&path, |tmp| {
+        std::fs::write(tmp, &text).map_err(|e| SimError::io(tmp, e))
+    })
 }

@@ -144,6 +144,8 @@ pub fn distance_report(
                         peak_dbfs: -3.0,
                         seed: 11 + si as u64,
                         array: Default::default(),
+                        noise_sources: Vec::new(),
+                        source_room: crate::noise_source::SourceRoom::Free,
                     };
                     let p = scene::synthesize_parts(&spec, Some(r as f64));
                     let mix: Vec<[f32; 4]> = p
@@ -215,6 +217,8 @@ mod tests {
                 peak_dbfs: -3.0,
                 seed: 1,
                 array: Default::default(),
+                noise_sources: Vec::new(),
+                source_room: crate::noise_source::SourceRoom::Free,
             };
             let p = scene::synthesize_parts(&spec, Some(*r as f64));
             let (_, total) = analyse(&p.talker, rate, 40.0, (80.0, 500.0), 5);

@@ -74,6 +74,11 @@ pub fn rir_seconds(s: &str) -> Result<f64, String> {
     number_in(s, 0.0, MAX_RIR_S, true)
 }
 
+/// A talker's distance in a room: 0.3 to 20 m.
+pub fn talker_distance(s: &str) -> Result<f64, String> {
+    number_in(s, 0.3, 20.0, false)
+}
+
 /// A waiting time: more than 0, at most [`MAX_TIME_S`].
 pub fn positive_seconds(s: &str) -> Result<f64, String> {
     number_in(s, 0.0, MAX_TIME_S, true)

@@ -191,6 +191,8 @@ pub fn beam_report(data: &Path, snr_db: f64, rate: u32) -> Result<Vec<BeamRow>> 
             peak_dbfs: -3.0,
             seed: 7,
             array: Default::default(),
+            noise_sources: Vec::new(),
+            source_room: crate::noise_source::SourceRoom::Free,
         };
         let parts = scene::synthesize_parts(&spec, None);
         let mix: Vec<[f32; 4]> = parts
@@ -290,6 +292,8 @@ mod tests {
             peak_dbfs: -3.0,
             seed: 5,
             array: Default::default(),
+            noise_sources: Vec::new(),
+            source_room: crate::noise_source::SourceRoom::Free,
         };
         let p = scene::synthesize_parts(&spec, None);
         let mix: Vec<[f32; 4]> = p

@@ -287,6 +287,8 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             peak_dbfs: 0.0,
             seed: spec.seed,
             array: crate::array_model::ArrayModel::default(),
+            noise_sources: Vec::new(),
+            source_room: crate::noise_source::SourceRoom::Free,
         };
         let [w, x, y] = scene::render_talker(&one, total, 0);
         // Equal power over the talker's speaking time.

@@ -10,6 +10,7 @@
 use crate::array_model::ArrayModel;
 use crate::error::{Result, SimError};
 use crate::ground_truth::{wrap180, Track};
+use crate::noise_source::{self, NoiseSource, SourceRoom};
 use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
 use crate::wav_io::{read_four_channels, read_mono, write_atomically, write_frames, OutFormat};
 use std::f64::consts::PI;
@@ -125,8 +126,31 @@ impl RoomResponse {
         })
     }
 
+    /// A response from its (W, X, Y) parts and its direct-sound azimuth.
+    #[must_use]
+    pub fn from_parts(w: Vec<f64>, x: Vec<f64>, y: Vec<f64>, direct_deg: f64) -> Self {
+        Self {
+            w,
+            x,
+            y,
+            direct_deg,
+        }
+    }
+
+    /// The (W, X, Y) parts.
+    #[must_use]
+    pub fn parts(&self) -> (&[f64], &[f64], &[f64]) {
+        (&self.w, &self.x, &self.y)
+    }
+
+    /// The (W, X, Y) parts, taken.
+    #[must_use]
+    pub fn into_parts(self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        (self.w, self.x, self.y)
+    }
+
     /// (W, X, Y) responses rotated so the direct sound comes from `azimuth_deg`.
-    fn rotated(&self, azimuth_deg: f64) -> [Vec<f64>; 3] {
+    pub(crate) fn rotated(&self, azimuth_deg: f64) -> [Vec<f64>; 3] {
         let a = (azimuth_deg - self.direct_deg).to_radians();
         let (c, s) = (a.cos(), a.sin());
         let x = self
@@ -166,6 +190,10 @@ pub struct SceneSpec {
     pub seed: u64,
     /// Capsule model (ideal by default); applied to talker and noise alike.
     pub array: ArrayModel,
+    /// Directional noise sources (levels relative to the talker's power).
+    pub noise_sources: Vec<NoiseSource>,
+    /// The room the noise sources are rendered through.
+    pub source_room: SourceRoom,
 }
 
 /// A synthesised scene: CMA1 sample frames and truth.
@@ -432,7 +460,7 @@ pub fn load_source(
 pub struct SceneParts {
     /// Talker only (omni, card 0°, 120°, 240°).
     pub talker: Vec<[f32; 4]>,
-    /// Diffuse noise only (all zero without an SNR).
+    /// Diffuse noise and noise sources (all zero without either).
     pub noise: Vec<[f32; 4]>,
     /// Rate, Hz.
     pub rate: u32,
@@ -494,6 +522,24 @@ pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> ScenePar
         None => vec![[0.0; 4]; total],
     };
     let mut noise = noise;
+    if !spec.noise_sources.is_empty() {
+        let [sw, sx, sy] = noise_source::render(
+            &spec.noise_sources,
+            &spec.source_room,
+            spec.rate,
+            total,
+            talker_power,
+            spec.seed,
+        );
+        for (n, s) in noise
+            .iter_mut()
+            .zip(spec.array.render(&sw, &sx, &sy, spec.rate))
+        {
+            for c in 0..4 {
+                n[c] += s[c];
+            }
+        }
+    }
     let reference = talker_power * spec.snr_db.map_or(1.0, |snr| 10f64.powf(-snr / 10.0));
     spec.array.add_self_noise(&mut noise, reference, spec.seed);
     let peak = talker
