@@ -773,6 +773,8 @@ const QUIET_DB: f32 = 1.0;
 const CHECK_FRAMES: u32 = 16;
 /// A batch that passed its check joins the long-term sums at this many background frames.
 const BATCH_FRAMES: u32 = 128;
+/// Background frames before a band's first estimate is accepted (a multiple of [`CHECK_FRAMES`]).
+const FIRST_ESTIMATE_FRAMES: u32 = 32;
 
 impl CapsuleCalibrationState {
     /// An idle state (the stage off).
@@ -1037,6 +1039,12 @@ impl CapsuleCalibrationState {
             if merge {
                 self.sums[band] = total;
             }
+            // Never on little evidence: a band's estimate moves only once FIRST_ESTIMATE_FRAMES
+            // background frames have passed the diffuseness checks (a second of a real room's
+            // ambient noise is no measurement of the capsules).
+            if self.sums[band].n <= 0.0 && self.batch_frames < FIRST_ESTIMATE_FRAMES {
+                continue;
+            }
             if let Some(model) = clean.solve(self.settings.shrinkage) {
                 self.accepted.bands[band] = model;
             }
@@ -1163,6 +1171,18 @@ mod tests {
         }
         let noise = st.sums[1].self_noise() / st.sums[1].n;
         assert!((noise - 0.05).abs() < 0.005, "{noise}");
+    }
+
+    #[test]
+    fn a_second_of_background_does_not_move_the_estimate() {
+        // Fewer background frames than FIRST_ESTIMATE_FRAMES: however much they suggest, the
+        // capsules stay ideal (a one-second recording must not be "calibrated").
+        let mut st = fresh();
+        feed(&mut st, A, B, 0.0, 0.0, None, false, FIRST_ESTIMATE_FRAMES as usize - 1, 3, 0.0);
+        assert_eq!(st.estimate().bands, CapsuleEstimate::IDEAL.bands);
+        // The next check after FIRST_ESTIMATE_FRAMES accepts what they taught.
+        feed(&mut st, A, B, 0.0, 0.0, None, false, CHECK_FRAMES as usize, 4, 0.0);
+        assert_ne!(st.estimate().bands, CapsuleEstimate::IDEAL.bands);
     }
 
     #[test]
