@@ -87,6 +87,15 @@ impl ConfigError {
         self.key.as_deref()
     }
 
+    /// Every key at fault (several when only together they are wrong; none when no key is).
+    #[must_use]
+    pub fn keys(&self) -> Vec<&str> {
+        self.key
+            .as_deref()
+            .map(|k| k.split("`, `").collect())
+            .unwrap_or_default()
+    }
+
     /// What is wrong.
     #[must_use]
     pub fn message(&self) -> &str {
@@ -174,6 +183,16 @@ pub fn parse_over(base: &LocatorConfig, text: &str) -> Result<LocatorConfig, Con
         return Err(blame(&base_table, &merged, message));
     }
     Ok(config)
+}
+
+/// The core's check of `config` as [`validate`], naming the keys changed from `base` that make it
+/// fail (as [`parse_over`] names a file's keys): for settings made by other means than a file, such
+/// as command-line flags laid over a file.
+pub fn validate_changes(base: &LocatorConfig, config: &LocatorConfig) -> Result<(), ConfigError> {
+    match core_check(config) {
+        Ok(()) => Ok(()),
+        Err(message) => Err(blame(&to_table(base), &to_table(config), message)),
+    }
 }
 
 /// The deserializer's message in plain words: `expected usize` becomes `expected a whole number
@@ -482,6 +501,11 @@ mod tests {
         // Two keys that only together are wrong: both named.
         let e = parse_over(&base, "band_lo_hz = 3000.0\nband_hi_hz = 2000.0").unwrap_err();
         assert_eq!(e.key(), Some("band_lo_hz`, `band_hi_hz"), "{e}");
+        assert_eq!(e.keys(), ["band_lo_hz", "band_hi_hz"]);
+        let mut c = base;
+        c.band_lo_hz = 5000.0;
+        let e = validate_changes(&base, &c).unwrap_err();
+        assert_eq!(e.keys(), ["band_lo_hz"], "{e}");
     }
 
     #[test]
