@@ -2,14 +2,14 @@
 //! * the capsule estimate the self-calibration starts from: the file named by `CMA_SELFCAL` (written
 //!   by `host-sim locate --selfcal-out`; an absolute path or one relative to the `firmware` directory)
 //!   is parsed with the core's own parser into `OUT_DIR/stored_capsules.rs` (see
-//!   `src/stored_capsules.rs`); a bad file fails the build with the parser's message; without the
+//!   `src/stored_capsules.rs`); a bad file fails the build with the parser's message (no panic); without the
 //!   variable the start is the ideal capsule. For every target, so the host tests see it too.
 //! * the localizer configuration: the file named by `CMA_CONFIG` (a configuration file as `host-sim
 //!   config` prints it, complete or only some keys over the default preset; an absolute path or one
 //!   relative to the `firmware` directory) is read and checked with `cma-config`, the parser and
 //!   check `host-sim --config` uses, and written as a Rust constant into
 //!   `OUT_DIR/embedded_config.rs` (see `src/embedded_config.rs`); a bad file fails the build with
-//!   the key named; without the variable the configuration is `LocatorConfig::default()`.
+//!   the key named (a `cargo:warning` line and exit status 1, no panic); without the variable the configuration is `LocatorConfig::default()`.
 //! * link arguments, for the target only: the board's memory layout as `memory.x` (`memory.x` for
 //!   the STM32F411CE, `memory-f446.x` for the STM32F446RE, `memory-mps2.x` for the emulated board;
 //!   the `board-*` feature selects it)
@@ -39,9 +39,9 @@ fn main() {
         (true, false, false) => "memory.x",
         (false, true, false) => "memory-mps2.x",
         (false, false, true) => "memory-f446.x",
-        _ => panic!(
+        _ => fail(
             "select exactly one board: the default features (board-f411) or \
-             `--no-default-features --features board-mps2` or `… --features board-f446`"
+             `--no-default-features --features board-mps2` or `… --features board-f446`",
         ),
     };
     fs::copy(layout, out.join("memory.x")).expect("copy the memory layout");
@@ -49,6 +49,18 @@ fn main() {
     println!("cargo:rustc-link-arg-bins=--nmagic");
     println!("cargo:rustc-link-arg-bins=-Tlink.x");
     println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+}
+
+/// Ends the build with `message`: a bad build variable is the user's error, not the build script's,
+/// so it is reported as one line (a cargo warning, which cargo shows even when the script's output is
+/// hidden, and on stderr) and exit status 1, without a panic's backtrace.
+fn fail(message: &str) -> ! {
+    // Cargo reads its directives line by line: one line per directive.
+    for line in message.lines() {
+        println!("cargo:warning={line}");
+    }
+    eprintln!("error: {message}");
+    std::process::exit(1)
 }
 
 /// The path a build variable names: absolute, or relative to the `firmware` directory.
@@ -70,23 +82,23 @@ fn embedded_config(out: &Path) {
             let path = variable_path(&var);
             println!("cargo:rerun-if-changed={}", path.display());
             let text = fs::read_to_string(&path).unwrap_or_else(|e| {
-                panic!(
+                fail(&format!(
                     "CMA_CONFIG={}: cannot read the configuration file: {e}",
                     path.display()
-                )
+                ))
             });
             let config = cma_config::parse_over(&default, &text).unwrap_or_else(|e| {
-                panic!(
+                fail(&format!(
                     "CMA_CONFIG={}: {e} (expected a configuration file as `host-sim config` prints it)",
                     path.display()
-                )
+                ))
             });
             (config, Some(path.display().to_string()))
         }
         None => (default, None),
     };
     let code = cma_config::to_rust(&config)
-        .unwrap_or_else(|e| panic!("CMA_CONFIG: the configuration as Rust: {e}"));
+        .unwrap_or_else(|e| fail(&format!("CMA_CONFIG: the configuration as Rust: {e}")));
     let about = source.as_deref().map_or(
         "`LocatorConfig::default()`: CMA_CONFIG was not set".to_string(),
         |s| format!("from `{s}`"),
@@ -111,16 +123,16 @@ fn stored_capsules(out: &Path) {
             let path = variable_path(&var);
             println!("cargo:rerun-if-changed={}", path.display());
             let text = fs::read_to_string(&path).unwrap_or_else(|e| {
-                panic!(
+                fail(&format!(
                     "CMA_SELFCAL={}: cannot read the self-calibration file: {e}",
                     path.display()
-                )
+                ))
             });
             let est = cma_core::capsule_estimate_file::parse(&text).unwrap_or_else(|e| {
-                panic!(
+                fail(&format!(
                     "CMA_SELFCAL={}: {e} (expected a file written by `host-sim locate --selfcal-out`)",
                     path.display()
-                )
+                ))
             });
             (est, Some(path.display().to_string()))
         }

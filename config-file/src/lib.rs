@@ -87,6 +87,15 @@ impl ConfigError {
         self.key.as_deref()
     }
 
+    /// Every key at fault (several when only together they are wrong; none when no key is).
+    #[must_use]
+    pub fn keys(&self) -> Vec<&str> {
+        self.key
+            .as_deref()
+            .map(|k| k.split("`, `").collect())
+            .unwrap_or_default()
+    }
+
     /// What is wrong.
     #[must_use]
     pub fn message(&self) -> &str {
@@ -163,7 +172,7 @@ pub fn parse_over(base: &LocatorConfig, text: &str) -> Result<LocatorConfig, Con
     let config: LocatorConfig = serde_path_to_error::deserialize(Value::Table(merged.clone()))
         .map_err(|e| {
             let path = e.path().to_string();
-            let message = e.into_inner().to_string();
+            let message = plain_wording(&e.into_inner().to_string());
             if path == "." || path.is_empty() {
                 ConfigError { key: None, message }
             } else {
@@ -174,6 +183,69 @@ pub fn parse_over(base: &LocatorConfig, text: &str) -> Result<LocatorConfig, Con
         return Err(blame(&base_table, &merged, message));
     }
     Ok(config)
+}
+
+/// The core's check of `config` as [`validate`], naming the keys changed from `base` that make it
+/// fail (as [`parse_over`] names a file's keys): for settings made by other means than a file, such
+/// as command-line flags laid over a file.
+pub fn validate_changes(base: &LocatorConfig, config: &LocatorConfig) -> Result<(), ConfigError> {
+    match core_check(config) {
+        Ok(()) => Ok(()),
+        Err(message) => Err(blame(&to_table(base), &to_table(config), message)),
+    }
+}
+
+/// The deserializer's message in plain words: `expected usize` becomes `expected a whole number
+/// ≥ 0`, `invalid type: string "x", expected f32` becomes `expected a number, got the string "x"`,
+/// and the trailing `in `key`` (the key is named already) goes.
+fn plain_wording(message: &str) -> String {
+    let message = message.lines().next().unwrap_or_default().trim_end();
+    let what = |expected: &str| -> String {
+        let expected = expected.trim();
+        match expected {
+            "usize" | "u8" | "u16" | "u32" | "u64" => "a whole number ≥ 0".into(),
+            "isize" | "i8" | "i16" | "i32" | "i64" => "a whole number".into(),
+            "f32" | "f64" => "a number".into(),
+            "struct variant" => "a table of the variant's settings".into(),
+            "unit variant" => "a variant name in quotes".into(),
+            e => match e.strip_prefix("struct ") {
+                Some(_) => "a table of settings".into(),
+                None => e.to_string(),
+            },
+        }
+    };
+    let got = |found: &str| -> String {
+        let found = found.trim();
+        for (prefix, name) in [
+            ("string ", "the string "),
+            ("integer ", ""),
+            ("floating point ", ""),
+            ("boolean ", ""),
+        ] {
+            if let Some(v) = found.strip_prefix(prefix) {
+                return format!("{name}{}", v.trim_matches('`'));
+            }
+        }
+        match found {
+            "map" => "a table".into(),
+            "sequence" => "a list".into(),
+            "unit variant" => "a variant name without settings".into(),
+            f => f.to_string(),
+        }
+    };
+    for prefix in ["invalid type: ", "invalid value: "] {
+        if let Some(rest) = message.strip_prefix(prefix) {
+            if let Some((found, expected)) = rest.split_once(", expected ") {
+                return format!("expected {}, got {}", what(expected), got(found));
+            }
+        }
+    }
+    if message.starts_with("wanted exactly 1 element") {
+        return "more than one variant given: a setting with variants takes exactly one (write \
+                `key = \"Variant\"`, or one `[key.Variant]` table)"
+            .into();
+    }
+    message.to_string()
 }
 
 /// The core's own check of a configuration, as the firmware's localizer will run it (48 kHz input,
@@ -217,16 +289,28 @@ fn blame(base: &Table, merged: &Table, message: String) -> ConfigError {
     }
 }
 
-/// Lays `file` over `into`: tables merge key by key, any other value replaces.
+/// Lays `file` over `into`: tables merge key by key, any other value replaces. A table naming
+/// another variant than the base's (`[tracking.OnePole]` over `[tracking.Grid]`) replaces it: a
+/// setting with variants holds one.
 fn lay_over(into: &mut Table, file: Table) {
     for (k, v) in file {
         match (into.get_mut(&k), v) {
-            (Some(Value::Table(a)), Value::Table(b)) => lay_over(a, b),
+            (Some(Value::Table(a)), Value::Table(b)) if !other_variant(a, &b) => lay_over(a, b),
             (_, v) => {
                 into.insert(k, v);
             }
         }
     }
+}
+
+/// `true` if `a` and `b` are both one variant's table (a single key spelled like a variant,
+/// `Grid`) and name different variants.
+fn other_variant(a: &Table, b: &Table) -> bool {
+    let variant = |t: &Table| match t.keys().collect::<Vec<_>>().as_slice() {
+        [k] if k.starts_with(|c: char| c.is_ascii_uppercase()) => Some((*k).clone()),
+        _ => None,
+    };
+    matches!((variant(a), variant(b)), (Some(x), Some(y)) if x != y)
 }
 
 /// Dotted keys of the leaves (non-table values, and tables present in only one) where `b` differs
@@ -417,6 +501,55 @@ mod tests {
         // Two keys that only together are wrong: both named.
         let e = parse_over(&base, "band_lo_hz = 3000.0\nband_hi_hz = 2000.0").unwrap_err();
         assert_eq!(e.key(), Some("band_lo_hz`, `band_hi_hz"), "{e}");
+        assert_eq!(e.keys(), ["band_lo_hz", "band_hi_hz"]);
+        let mut c = base;
+        c.band_lo_hz = 5000.0;
+        let e = validate_changes(&base, &c).unwrap_err();
+        assert_eq!(e.keys(), ["band_lo_hz"], "{e}");
+    }
+
+    #[test]
+    fn type_errors_are_in_plain_words() {
+        let base = Preset::Default.config();
+        for (text, key, says) in [
+            (
+                "num_peaks = \"ten\"",
+                "num_peaks",
+                "expected a whole number ≥ 0, got the string \"ten\"",
+            ),
+            (
+                "num_peaks = -1",
+                "num_peaks",
+                "expected a whole number ≥ 0, got -1",
+            ),
+            (
+                "[reliability]\nspeed = \"x\"",
+                "reliability.speed",
+                "expected a number, got the string \"x\"",
+            ),
+            (
+                "reliability = 3",
+                "reliability",
+                "expected a table of settings, got 3",
+            ),
+        ] {
+            let e = parse_over(&base, text).unwrap_err();
+            assert_eq!(e.key(), Some(key), "{text}: {e}");
+            assert_eq!(e.message(), says, "{text}");
+        }
+    }
+
+    #[test]
+    fn a_variant_table_replaces_the_base_variant() {
+        let base = Preset::Default.config();
+        let c = parse_over(&base, "[tracking.OnePole]").unwrap();
+        assert_eq!(c.tracking, cma_core::config::Tracking::OnePole);
+        let e = parse_over(
+            &base,
+            "[tracking.Grid]\nsharpness = 3.0\n[tracking.OnePole]",
+        )
+        .unwrap_err();
+        assert!(!e.message().contains("wanted exactly"), "{e}");
     }
 
     #[test]

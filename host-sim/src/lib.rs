@@ -96,7 +96,7 @@ const EXAMPLES: &[(&str, &str)] = &[
     ),
     (
         "eval",
-        "host-sim eval shared/data/eval --preset thesis --json",
+        "host-sim eval out/demo --preset thesis --json    (out/demo: written by scripts/demo.sh)",
     ),
     (
         "scene",
@@ -121,7 +121,7 @@ const EXAMPLES: &[(&str, &str)] = &[
     ),
     (
         "options-eval",
-        "host-sim options-eval shared/data/eval --base \"--config room.toml\"",
+        "host-sim options-eval out/demo --base \"--config room.toml\"",
     ),
     (
         "distance-report",

@@ -67,3 +67,183 @@ fn a_wav_on_standard_input_is_read_once_and_whole() {
     assert_eq!(stderr(&from_pipe), "", "--quiet prints nothing");
     assert_eq!(from_pipe.stdout, from_file.stdout);
 }
+
+/// A scene of `seconds` written by `host-sim scene` into `dir`.
+fn scene(dir: &std::path::Path, name: &str, seconds: &str) -> String {
+    let wav = dir.join(name);
+    let w = wav.to_str().unwrap().to_string();
+    let o = run(&["scene", "--out", &w, "--synth", seconds, "--azimuth", "40"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    w
+}
+
+#[test]
+fn a_dash_reads_standard_input_and_writes_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let w = scene(dir.path(), "s.wav", "1");
+    let from_file = run(&["locate", &w, "--quiet"]);
+    assert!(from_file.status.success());
+    let mut child = host_sim()
+        .args(["locate", "-", "--quiet", "--csv", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let bytes = std::fs::read(&w).unwrap();
+    let writer = std::thread::spawn(move || stdin.write_all(&bytes));
+    let from_dash = child.wait_with_output().unwrap();
+    writer.join().unwrap().unwrap();
+    assert!(from_dash.status.success(), "{}", stderr(&from_dash));
+    assert_eq!(from_dash.stdout, from_file.stdout);
+}
+
+#[test]
+fn flags_are_refused_before_any_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let w = scene(dir.path(), "s.wav", "1");
+    let tracks = dir.path().join("t.csv");
+    let o = run(&[
+        "locate",
+        &w,
+        "--method",
+        "tdiv",
+        "--tracks",
+        tracks.to_str().unwrap(),
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(o.stdout.is_empty(), "no estimates before the error");
+    assert!(
+        e.starts_with("error: --tracks") && e.contains("similarity"),
+        "{e}"
+    );
+    assert!(!e.contains("self-calibration"), "{e}");
+    // An output into a folder that does not exist: named as given, before any work.
+    let missing = dir.path().join("nodir").join("x.csv");
+    let o = run(&["locate", &w, "--csv", missing.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(o.stdout.is_empty());
+    assert!(
+        e.contains(missing.to_str().unwrap()) && e.contains("nodir does not exist"),
+        "{e}"
+    );
+    assert!(
+        !e.contains(".partial") && !e.contains("self-calibration"),
+        "{e}"
+    );
+    let o = run(&["scene", "--out", missing.to_str().unwrap(), "--synth", "1"]);
+    let e = stderr(&o);
+    assert!(
+        e.contains("nodir does not exist") && !e.contains(".partial"),
+        "{e}"
+    );
+}
+
+#[test]
+fn non_finite_input_is_counted_and_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = dir.path().join("nan.wav");
+    let spec = hound::WavSpec {
+        channels: 4,
+        sample_rate: 16000,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut wr = hound::WavWriter::create(&wav, spec).unwrap();
+    for i in 0..16000 * 4 {
+        // All NaN but the last tenth.
+        let x = if i < 16000 * 4 * 9 / 10 {
+            f32::NAN
+        } else {
+            (i as f32 * 0.05).sin() * 0.1
+        };
+        wr.write_sample(x).unwrap();
+    }
+    wr.finalize().unwrap();
+    let o = run(&["locate", wav.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "exit 0, as documented: {e}");
+    assert!(
+        e.contains("locate: warning:") && e.contains("NaN or infinite"),
+        "{e}"
+    );
+    let summary = e.lines().last().unwrap();
+    assert!(summary.contains("NON_FINITE (flags 4, "), "{summary}");
+    // The warning stays with --quiet.
+    let o = run(&["locate", wav.to_str().unwrap(), "--quiet"]);
+    assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
+}
+
+#[test]
+fn a_stereo_talker_source_is_refused_with_its_channel_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("stereo.wav");
+    let spec = hound::WavSpec {
+        channels: 2,
+        sample_rate: 16000,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut wr = hound::WavWriter::create(&src, spec).unwrap();
+    for i in 0..32000 {
+        wr.write_sample(((i as f32 * 0.01).sin() * 3000.0) as i16)
+            .unwrap();
+    }
+    wr.finalize().unwrap();
+    let out = dir.path().join("s.wav");
+    let o = run(&[
+        "scene",
+        "--source",
+        src.to_str().unwrap(),
+        "--azimuth",
+        "10",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("--source") && e.contains("has 2 channels") && e.contains("mono"),
+        "{e}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn frames_without_history_carry_their_own_estimate_as_the_help_says() {
+    let help = String::from_utf8(run(&["locate", "--help"]).stdout).unwrap();
+    assert!(!help.contains("start value"), "{help}");
+    assert!(help.contains("untracked estimate"), "{help}");
+    let dir = tempfile::tempdir().unwrap();
+    let w = scene(dir.path(), "s.wav", "2");
+    let o = run(&["locate", &w]);
+    let csv = String::from_utf8_lossy(&o.stdout).into_owned();
+    let mut seen = 0;
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let flags: u8 = f[6].parse().unwrap();
+        // NO_HISTORY (16) with a peak (no NO_PEAKS, 8): the azimuth is the frame's raw one.
+        if flags & 16 != 0 && flags & 8 == 0 {
+            assert_eq!(f[2], f[3], "{line}");
+            seen += 1;
+        }
+    }
+    assert!(seen > 0, "{csv}");
+    let summary = stderr(&o);
+    assert!(!summary.contains("start value"), "{summary}");
+}
+
+#[test]
+fn eval_help_defines_its_columns_with_an_example_a_clone_can_run() {
+    let help = String::from_utf8(run(&["eval", "--help"]).stdout).unwrap();
+    for column in ["trACC10", "trMAE", "rawACC10", "jump-reach", "jump-settle"] {
+        assert!(
+            help.lines().any(|l| l.trim_start().starts_with(column)),
+            "{column} undefined: {help}"
+        );
+    }
+    assert!(!help.contains("shared/data"), "{help}");
+}

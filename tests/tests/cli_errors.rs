@@ -140,19 +140,35 @@ fn bad_flags() {
     let wav = make_scene(dir.path(), "ok.wav", &["--synth", "1", "--azimuth", "0"]);
     let w = wav.to_string_lossy().into_owned();
     let m = err_of(&["locate", &w, "--peaks", "0"]);
-    assert!(m.contains("num_peaks"), "{m}");
+    assert!(m.contains("--peaks") && m.contains("1 to 32"), "{m}");
+    assert!(!m.contains("num_peaks"), "{m}");
+    let m = err_of(&["locate", &w, "--sharpness", "-5"]);
+    assert!(m.contains("--sharpness") && m.contains("≥ 0"), "{m}");
+    assert!(
+        !m.contains("probabilities"),
+        "one rule, not the tracker's list: {m}"
+    );
+    let m = err_of(&["locate", &w, "--band-lo", "nan"]);
+    assert!(
+        m.contains("--band-lo") && m.contains("finite number"),
+        "{m}"
+    );
+    let m = err_of(&["locate", &w, "--band-lo", "5000"]);
+    assert!(m.contains("--band-lo") && m.contains("band"), "{m}");
+    let m = err_of(&["locate", &w, "--vmax", "0.0001", "--vfloor", "0.001"]);
+    assert!(m.starts_with("--v") && m.contains("V_max > V_floor"), "{m}");
     let m = err_of(&["locate", &w, "--snr-step=0"]);
-    assert!(m.contains("SNR sets"), "{m}");
+    assert!(m.contains("--snr-step") && m.contains("SNR sets"), "{m}");
     let m = err_of(&["locate", &w, "--snr-from=50"]);
     assert!(m.contains("SNR sets"), "{m}");
     let m = err_of(&["locate", &w, "--snr-step=0.5"]);
     assert!(m.contains("more than 16 sets"), "{m}");
     let m = err_of(&["locate", &w, "--band-hi", "9000"]);
-    assert!(m.contains("band"), "{m}");
+    assert!(m.contains("--band-hi") && m.contains("band"), "{m}");
     let m = err_of(&["locate", &w, "--gate-open", "3", "--gate-full", "2"]);
-    assert!(m.contains("noise gate"), "{m}");
+    assert!(m.contains("--gate-") && m.contains("noise gate"), "{m}");
     let m = err_of(&["locate", &w, "--refine-gain", "1.5"]);
-    assert!(m.contains("grid tracker"), "{m}");
+    assert!(m.contains("--refine-gain") && m.contains("[0, 1]"), "{m}");
     let m = err_of(&[
         "locate",
         &w,
@@ -161,13 +177,23 @@ fn bad_flags() {
         "--frame-onset-floor",
         "2",
     ]);
-    assert!(m.contains("frame onset"), "{m}");
+    assert!(
+        m.contains("--frame-onset-floor") && m.contains("[0, 1]"),
+        "{m}"
+    );
     let m = err_of(&["locate", &w, "--noise-gate", "maybe"]);
     assert!(m.contains("--noise-gate"), "{m}");
     let m = err_of(&["locate", &w, "--features", "phase"]);
     assert!(m.contains("--features"), "{m}");
     let m = err_of(&["locate", &w, "--features", "active", "--noise", "power"]);
-    assert!(m.contains("active features"), "{m}");
+    assert!(
+        m.contains("--noise") && m.contains("active features"),
+        "{m}"
+    );
+    let e = host_sim(&["locate", &w, "--peaks", "0"]).unwrap_err();
+    assert_eq!(e.exit_code(), 2, "a flag's value is a usage error: {e}");
+    let e = host_sim(&["locate", &w, "--band-lo", "5000"]).unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
     let m = err_of(&[
         "scene",
         "--out",

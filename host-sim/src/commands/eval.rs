@@ -9,8 +9,9 @@ use std::path::PathBuf;
 
 /// `host-sim eval`.
 #[derive(Debug, clap::Args)]
+#[command(after_help = eval::COLUMNS_HELP)]
 pub struct EvalArgs {
-    /// Folder with manifest.csv.
+    /// Folder with manifest.csv (as `host-sim scene --manifest DIR/manifest.csv` writes it).
     pub dir: PathBuf,
     /// Print the report as JSON instead of a table.
     #[arg(long)]

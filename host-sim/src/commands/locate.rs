@@ -4,16 +4,19 @@ use super::progress_bar;
 use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
 use crate::wav_io::InputLayout;
-use crate::{estimate_output, locate, multi_talker_eval, selfcal_file, stdout_text, wav_io};
+use crate::{
+    estimate_output, locate, multi_talker_eval, output_file, selfcal_file, stdout_text, wav_io,
+};
 use std::path::PathBuf;
 
 /// `host-sim locate`.
 #[derive(Debug, clap::Args)]
 #[command(after_help = LOCATE_AFTER_HELP)]
 pub struct LocateArgs {
-    /// Input WAV (4 channels); a pipe or /dev/stdin works too.
+    /// Input WAV (4 channels); `-` (or /dev/stdin, a pipe) reads standard input.
     pub input: PathBuf,
-    /// Write the estimates to this file instead of stdout (in --format; `--out` is the same flag).
+    /// Write the estimates to this file instead of stdout (in --format; `--out` is the same flag;
+    /// `-` is stdout).
     #[arg(long, visible_alias = "out")]
     pub csv: Option<PathBuf>,
     /// Format of the estimates.
@@ -48,9 +51,19 @@ const LOCATE_AFTER_HELP: &str = concat!(
      (0-1), power_db (omni) and flags. ",
     "Flags: the decimal sum of 1 SILENT, 2 CLIPPED, 4 NON_FINITE, 8 NO_PEAKS, 16 NO_HISTORY. \
      The first frames of a recording carry NO_HISTORY with confidence 0: no reliable frame has \
-     been seen yet and the azimuth is the start value, not an estimate. ",
-    "A summary line on stderr (unless --quiet) counts them.",
+     been seen yet, so nothing is tracked and azimuth_deg is that frame's own untracked estimate \
+     (equal to azimuth_raw_deg; the previous row's azimuth, 0 at the start, when the frame has no \
+     peak): it jumps from row to row and is not to be relied on. ",
+    "Unless --quiet, stderr ends with a summary: the self-calibration's estimate per band (when \
+     it is on, 5 lines), then one line counting the frames, those with history and those with \
+     NaN/Inf input. Input with NaN/Inf samples (replaced by 0, flag 4 NON_FINITE) still exits 0, \
+     with a warning line on stderr (also with --quiet).",
 );
+
+/// `-` for standard input or output, as a path.
+fn is_dash(path: &std::path::Path) -> bool {
+    path.as_os_str() == "-"
+}
 
 /// Runs `host-sim locate`.
 pub fn run(a: &LocateArgs) -> Result<()> {
@@ -58,7 +71,23 @@ pub fn run(a: &LocateArgs) -> Result<()> {
     let config = a.config.config()?;
     let measured = a.config.measured_table()?;
     let table = a.config.table(measured.as_ref())?;
-    let mut stream = wav_io::RecordingStream::open(&a.input, a.input_layout)?;
+    // Everything that can be refused is, before any output.
+    let csv = a.csv.as_deref().filter(|p| !is_dash(p));
+    for path in [csv, a.tracks.as_deref(), a.selfcal_out.as_deref()]
+        .into_iter()
+        .flatten()
+    {
+        output_file::check_folder(path)?;
+    }
+    if a.tracks.is_some() {
+        check_tracks(config)?;
+    }
+    let input = if is_dash(&a.input) {
+        std::path::Path::new("/dev/stdin")
+    } else {
+        a.input.as_path()
+    };
+    let mut stream = wav_io::RecordingStream::open(input, a.input_layout)?;
     let rate = stream.rate();
     let pb = if a.quiet {
         indicatif::ProgressBar::hidden()
@@ -108,7 +137,7 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         estimate_output::Format::Csv => locate::write_csv(out, &rows),
         estimate_output::Format::Jsonl => estimate_output::write_jsonl(out, &rows),
     };
-    match &a.csv {
+    match csv {
         Some(path) => wav_io::write_atomically(path, |tmp| {
             let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;
             write(&mut std::io::BufWriter::new(f)).map_err(|e| SimError::io(tmp, e))
@@ -117,11 +146,26 @@ pub fn run(a: &LocateArgs) -> Result<()> {
             .map_err(|e| SimError::io(stdout_text::STDOUT, e))?,
     }
     if let Some(path) = &a.tracks {
-        multi_talker_eval::write_tracks_file(&a.input, a.input_layout, config, table, path)?;
+        multi_talker_eval::write_tracks_file(input, a.input_layout, config, table, path)?;
+    }
+    let summary = estimate_output::Summary::of(&rows, audio_s, started.elapsed().as_secs_f64());
+    if let Some(warning) = summary.non_finite_warning() {
+        eprintln!("{warning}");
     }
     if !a.quiet {
-        let summary = estimate_output::Summary::of(&rows, audio_s, started.elapsed().as_secs_f64());
         eprintln!("{}", summary.line());
     }
     Ok(())
+}
+
+/// Refuses a configuration the multi-talker tracks of `--tracks` cannot run with, naming the flag.
+fn check_tracks(config: cma_core::LocatorConfig) -> Result<()> {
+    if config.method != cma_core::Method::Similarity {
+        return Err(SimError::Usage(format!(
+            "--tracks: the multi-talker tracks need the similarity method (--method sim), not {:?}",
+            config.method
+        )));
+    }
+    cma_config::validate(&multi_talker_eval::with_tracks(config))
+        .map_err(|e| SimError::Usage(format!("--tracks: {}", e.message())))
 }

@@ -93,6 +93,9 @@ pub fn run(a: &SceneArgs) -> Result<()> {
         context: "--rate".into(),
         source,
     })?;
+    if let Some(path) = &a.source {
+        crate::wav_io::check_mono(path, "--source")?;
+    }
     if let Some(n) = a.multi.talkers {
         return crate::multi_talker_scene::run(a, n);
     }

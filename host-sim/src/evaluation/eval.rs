@@ -1,6 +1,7 @@
-//! `host-sim eval`: runs the localizer on every scene of a folder laid out like `shared/data/eval`
-//! and scores it against ground truth, per set and overall, for settled frames and for the 0.5 s after
-//! each truth change, plus how fast every jump is followed.
+//! `host-sim eval`: runs the localizer on every scene of a folder with a `manifest.csv` (as
+//! `host-sim scene --manifest` writes it) and scores it against ground truth, per set and overall,
+//! for settled frames and for the 0.5 s after each truth change, plus how fast every jump is
+//! followed.
 
 use crate::error::{Result, SimError};
 use crate::ground_truth::{wrap180, Track};
@@ -263,6 +264,44 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or("never".into(), |x| format!("{x:.2}"))
 }
 
+/// `v` with `decimals` right-aligned in `width`, or `-` when it is not a number (no frames).
+fn fmt_num(v: f64, width: usize, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:>width$.decimals$}")
+    } else {
+        format!("{:>width$}", "-")
+    }
+}
+
+/// The slowest of `times` (`None`: never), formatted: `-` without jumps, `never` when a jump was
+/// never followed.
+fn fmt_slowest(times: impl Iterator<Item = Option<f64>>) -> String {
+    let slowest = times
+        .map(|t| t.unwrap_or(f64::INFINITY))
+        .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
+    match slowest {
+        None => "-".into(),
+        Some(t) if t.is_finite() => format!("{t:.2}s"),
+        Some(_) => "never".into(),
+    }
+}
+
+/// What the columns of [`format_table`] mean: the end of `eval --help`, and the table's footer.
+pub const COLUMNS_HELP: &str = "\
+Columns (errors are wrapped differences estimate − truth, degrees; `-`: no such frames or jumps):
+  frames       settled frames scored: inside the manifest's score window and more than 0.5 s
+               after a truth change
+  ACCn         share of settled frames with |error| ≤ n°, %
+  MAE RMSE     mean absolute and root-mean-square error of the settled frames
+  bias std     mean and standard deviation of the settled frames' error
+  trACC10      ACC10 of the transition frames: the first 0.5 s after each truth change (a jump)
+  trMAE        MAE of the transition frames
+  rawACC10     ACC10 of azimuth_raw_deg (each frame's own, untracked estimate) on settled frames
+  jump-reach   slowest jump of the set: time from the change to the first estimate within 10°
+               of the new azimuth (`never`: not reached before the next change)
+  jump-settle  slowest jump of the set: time from the change after which every estimate stays
+               within 10° until the next change";
+
 /// The report as a text table.
 #[must_use]
 pub fn format_table(report: &Report) -> String {
@@ -270,42 +309,37 @@ pub fn format_table(report: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:<10} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>6} {:>6} {:>6} | {:>7} {:>6} | {:>7} | {:>9} {:>9}",
+        "{:<10} {:>6} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6} {:>6} {:>6} {:>6} | {:>7} {:>6} | {:>8} | {:>10} {:>11}",
         "set", "frames", "ACC1", "ACC5", "ACC10", "ACC15", "ACC30", "MAE", "RMSE", "bias", "std", "trACC10", "trMAE", "rawACC10", "jump-reach", "jump-settle"
     );
     for set in report.sets.iter().chain(std::iter::once(&report.overall)) {
         let m = &set.settled;
-        let reach = set
-            .jumps
-            .iter()
-            .map(|j| j.reach_s.unwrap_or(f64::INFINITY))
-            .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
-        let settle = set
-            .jumps
-            .iter()
-            .map(|j| j.settle_s.unwrap_or(f64::INFINITY))
-            .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
         let _ = writeln!(
             s,
-            "{:<10} {:>6} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>6.2} {:>6.2} {:>6.2} {:>6.2} | {:>7.1} {:>6.1} | {:>8.1} | {:>9} {:>9}",
+            "{:<10} {:>6} {} {} {} {} {} {} {} {} {} | {} {} | {} | {:>10} {:>11}",
             set.set,
             m.frames,
-            m.acc_at(1),
-            m.acc_at(5),
-            m.acc_at(10),
-            m.acc_at(15),
-            m.acc_at(30),
-            m.mae,
-            m.rmse,
-            m.bias,
-            m.std,
-            set.transition.acc_at(10),
-            set.transition.mae,
-            set.settled_raw.acc_at(10),
-            reach.map_or("-".into(), |r| if r.is_finite() { format!("{r:.2}s") } else { "never".into() }),
-            settle.map_or("-".into(), |r| if r.is_finite() { format!("{r:.2}s") } else { "never".into() }),
+            fmt_num(m.acc_at(1), 7, 1),
+            fmt_num(m.acc_at(5), 7, 1),
+            fmt_num(m.acc_at(10), 7, 1),
+            fmt_num(m.acc_at(15), 7, 1),
+            fmt_num(m.acc_at(30), 7, 1),
+            fmt_num(m.mae, 6, 2),
+            fmt_num(m.rmse, 6, 2),
+            fmt_num(m.bias, 6, 2),
+            fmt_num(m.std, 6, 2),
+            fmt_num(set.transition.acc_at(10), 7, 1),
+            fmt_num(set.transition.mae, 6, 1),
+            fmt_num(set.settled_raw.acc_at(10), 8, 1),
+            fmt_slowest(set.jumps.iter().map(|j| j.reach_s)),
+            fmt_slowest(set.jumps.iter().map(|j| j.settle_s)),
         );
     }
+    let _ = writeln!(
+        s,
+        "(settled frames; tr: the {TRANSITION_S} s after each jump; raw: untracked per-frame \
+         azimuth; jump-*: slowest jump of the set; `-`: none. See `host-sim eval --help`.)"
+    );
     let jumps: Vec<&Jump> = report.sets.iter().flat_map(|s| s.jumps.iter()).collect();
     if !jumps.is_empty() {
         let _ = writeln!(s, "\njumps (within {JUMP_TOLERANCE_DEG}°):");
@@ -321,4 +355,46 @@ pub fn format_table(report: &Report) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn set(name: &str, transition: &[f64], jumps: Vec<Jump>) -> SetSummary {
+        SetSummary {
+            set: name.into(),
+            scenes: 1,
+            settled: Metrics::from_errors(&[1.0, -2.0]),
+            transition: Metrics::from_errors(transition),
+            settled_raw: Metrics::from_errors(&[3.0]),
+            jumps,
+        }
+    }
+
+    #[test]
+    fn sets_without_jumps_print_a_dash_not_nan() {
+        let jump = Jump {
+            t_s: 1.0,
+            to_deg: 30.0,
+            reach_s: Some(0.2),
+            settle_s: None,
+        };
+        let report = Report {
+            sets: vec![set("static", &[], vec![]), set("jump", &[4.0], vec![jump])],
+            overall: set("all", &[4.0], vec![]),
+            scenes: vec![],
+        };
+        let table = format_table(&report);
+        assert!(!table.contains("NaN"), "{table}");
+        let static_row = table.lines().nth(1).unwrap();
+        assert!(static_row.ends_with("-           -"), "{static_row}");
+        assert!(
+            table.lines().nth(2).unwrap().ends_with("0.20s       never"),
+            "{table}"
+        );
+        assert!(table.contains("See `host-sim eval --help`"), "{table}");
+        let json = serde_json::to_value(&report).unwrap();
+        assert!(json["sets"][0]["transition"]["mae"].is_null(), "{json}");
+    }
 }

@@ -68,13 +68,17 @@ fn draw_legend(
     Ok(())
 }
 
+/// Size of the axis labels and descriptions of the track plot, px (plotters' default, 12, is hard
+/// to read in the small confidence panel).
+const AXIS_FONT: u32 = 16;
+
 /// Azimuth estimate (weighted and raw) and truth over time for one scene, and the confidence in a
 /// panel of its own; frames before the first reliable one (flag NO_HISTORY) are drawn hollow.
 pub fn track_plot(path: &Path, scene: &SceneResult) -> Result<()> {
     ensure_font()?;
     let err = draw_err(path);
     let t_end = scene.rows.last().map_or(1.0, |r| r.t_s).max(0.1);
-    let root = BitMapBackend::new(path, (1000, 560)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1000, 620)).into_drawing_area();
     root.fill(&WHITE).map_err(&err)?;
     let root = root
         .titled(
@@ -98,14 +102,14 @@ pub fn track_plot(path: &Path, scene: &SceneResult) -> Result<()> {
             }),
         ),
         (
-            "estimate".into(),
+            "tracked estimate".into(),
             Box::new(|a, (x, y)| {
                 a.draw(&Circle::new((x + 10, y), 3, BLUE.filled()))
                     .map_err(|e| format!("{e:?}"))
             }),
         ),
         (
-            "single frame (b = 1)".into(),
+            "raw per-frame estimate".into(),
             Box::new(move |a, (x, y)| {
                 a.draw(&Circle::new((x + 10, y), 3, raw_color.filled()))
                     .map_err(|e| format!("{e:?}"))
@@ -124,14 +128,16 @@ pub fn track_plot(path: &Path, scene: &SceneResult) -> Result<()> {
         |r: &crate::locate::Row| r.estimate.flags.contains(cma_core::Flags::NO_HISTORY);
     let mut chart = ChartBuilder::on(&top)
         .margin(10)
-        .x_label_area_size(20)
-        .y_label_area_size(50)
+        .x_label_area_size(25)
+        .y_label_area_size(65)
         .build_cartesian_2d(0.0..t_end, -180.0..180.0)
         .map_err(&err)?;
     chart
         .configure_mesh()
         .y_desc("azimuth (°)")
         .y_labels(9)
+        .label_style(("sans-serif", AXIS_FONT))
+        .axis_desc_style(("sans-serif", AXIS_FONT))
         .draw()
         .map_err(&err)?;
     chart
@@ -170,14 +176,16 @@ pub fn track_plot(path: &Path, scene: &SceneResult) -> Result<()> {
         .map_err(&err)?;
     let mut conf = ChartBuilder::on(&bottom)
         .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(50)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
         .build_cartesian_2d(0.0..t_end, 0.0..1.0)
         .map_err(&err)?;
     conf.configure_mesh()
         .x_desc("time (s)")
-        .y_desc("confidence b")
+        .y_desc("confidence")
         .y_labels(3)
+        .label_style(("sans-serif", AXIS_FONT))
+        .axis_desc_style(("sans-serif", AXIS_FONT))
         .draw()
         .map_err(&err)?;
     conf.draw_series(LineSeries::new(

@@ -89,6 +89,61 @@ pub fn time_seconds(s: &str) -> Result<f64, String> {
     number_in(s, -MAX_TIME_S, MAX_TIME_S, false)
 }
 
+/// Parses a single-precision number that `ok` accepts; else the message says it must be `rule`.
+fn setting(s: &str, rule: &str, ok: impl Fn(f32) -> bool) -> Result<f32, String> {
+    let v: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number; must be {rule}"))?;
+    if v.is_finite() && ok(v) {
+        Ok(v)
+    } else {
+        Err(format!("must be {rule}, got {v}"))
+    }
+}
+
+/// A configuration setting: any finite number.
+pub fn finite(s: &str) -> Result<f32, String> {
+    setting(s, "a finite number", |_| true)
+}
+
+/// A configuration setting: a finite number ≥ 0.
+pub fn non_negative(s: &str) -> Result<f32, String> {
+    setting(s, "a finite number ≥ 0", |v| v >= 0.0)
+}
+
+/// A configuration setting: a finite number > 0.
+pub fn positive(s: &str) -> Result<f32, String> {
+    setting(s, "a finite number > 0", |v| v > 0.0)
+}
+
+/// A configuration setting in [0, 1]: a probability, floor or gain.
+pub fn unit(s: &str) -> Result<f32, String> {
+    setting(s, "a number in [0, 1]", |v| (0.0..=1.0).contains(&v))
+}
+
+/// A smoothing pole: in [0, 1).
+pub fn pole(s: &str) -> Result<f32, String> {
+    setting(s, "a number in [0, 1)", |v| (0.0..1.0).contains(&v))
+}
+
+/// The number of spectral peaks: 1 to [`cma_core::MAX_PEAKS`].
+pub fn peaks(s: &str) -> Result<usize, String> {
+    let max = cma_core::MAX_PEAKS;
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!("must be a whole number from 1 to {max}, got `{s}`")),
+    }
+}
+
+/// The frame onset's power history: 1 to 8 frames.
+pub fn onset_history(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=8).contains(&n) => Ok(n),
+        _ => Err(format!("must be a whole number from 1 to 8, got `{s}`")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -115,5 +170,34 @@ mod tests {
         assert!(rir_seconds("0").is_err());
         assert!(positive_seconds("-1").is_err());
         assert!(time_seconds("x").unwrap_err().contains("not a number"));
+    }
+
+    #[test]
+    fn configuration_settings_name_their_one_rule() {
+        assert_eq!(
+            finite("nan"),
+            Err("must be a finite number, got NaN".into())
+        );
+        assert_eq!(finite("-3.5"), Ok(-3.5));
+        assert_eq!(
+            non_negative("-5"),
+            Err("must be a finite number ≥ 0, got -5".into())
+        );
+        assert_eq!(
+            positive("0").unwrap_err(),
+            "must be a finite number > 0, got 0"
+        );
+        assert_eq!(
+            unit("1.5").unwrap_err(),
+            "must be a number in [0, 1], got 1.5"
+        );
+        assert_eq!(pole("1"), Err("must be a number in [0, 1), got 1".into()));
+        assert_eq!(
+            peaks("0"),
+            Err("must be a whole number from 1 to 32, got `0`".into())
+        );
+        assert_eq!(peaks("32"), Ok(32));
+        assert!(onset_history("9").is_err());
+        assert!(finite("x").unwrap_err().contains("not a number"));
     }
 }

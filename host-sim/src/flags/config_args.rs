@@ -147,13 +147,13 @@ pub struct ConfigArgs {
     #[arg(long, help_heading = "Configuration")]
     pub table: Option<std::path::PathBuf>,
     /// Number of spectral peaks N_p.
-    #[arg(long, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::arg_values::peaks, help_heading = "Analysis: peaks and features")]
     pub peaks: Option<usize>,
     /// Analysis band lower edge, Hz.
-    #[arg(long, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub band_lo: Option<f32>,
     /// Analysis band upper edge, Hz.
-    #[arg(long, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::arg_values::positive, help_heading = "Analysis: peaks and features")]
     pub band_hi: Option<f32>,
     /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
     #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
@@ -166,7 +166,7 @@ pub struct ConfigArgs {
     )]
     pub kernel: Option<KernelArg>,
     /// Scale k of a distance kernel (1 − k·d^p); the preset's, or 1.5, when unset.
-    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::arg_values::positive, help_heading = "Similarity: measure, kernel, noisy references")]
     pub kernel_scale: Option<f32>,
     /// Noisy reference features: mixing rule.
     #[arg(
@@ -176,13 +176,13 @@ pub struct ConfigArgs {
     )]
     pub noise: Option<NoiseArg>,
     /// Lowest SNR of the noisy reference sets, dB.
-    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_from: Option<f32>,
     /// Highest SNR of the noisy reference sets, dB.
-    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_to: Option<f32>,
     /// SNR step between the noisy reference sets, dB.
-    #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_step: Option<f32>,
     /// Mean-free features.
     #[arg(long, help_heading = "Analysis: peaks and features")]
@@ -194,31 +194,31 @@ pub struct ConfigArgs {
     #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub no_reliability: bool,
     /// Speed factor K of the reliability weighting.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub speed: Option<f32>,
     /// Curve-variance scale V_max of the reliability weighting.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub vmax: Option<f32>,
     /// Curve-variance floor V_0 of the reliability weighting (b = 0 at or below it).
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub vfloor: Option<f32>,
     /// Exponent p of the reliability coefficient b = clip(K·(V/V_max)^p, 0, 1).
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub reliability_exponent: Option<f32>,
     /// Tracker on the similarity curve.
     #[arg(long, value_enum, help_heading = "Tracking")]
     pub tracker: Option<TrackerArg>,
     /// Grid tracker: likelihood sharpness λ.
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Tracking")]
     pub sharpness: Option<f32>,
     /// Grid tracker: random-walk step per frame, degrees.
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Tracking")]
     pub diffusion: Option<f32>,
     /// Grid tracker: jump probability per frame.
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
     pub jump_prob: Option<f32>,
     /// Grid tracker: jump probability of the first reliable frames after a pause.
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
     pub onset_jump_prob: Option<f32>,
     /// Grid tracker: frames with b = 0 that make a pause (0 = no onset jump probability).
     #[arg(long, help_heading = "Tracking")]
@@ -227,14 +227,14 @@ pub struct ConfigArgs {
     #[arg(long, help_heading = "Tracking")]
     pub onset_frames: Option<u32>,
     /// Grid tracker: likelihood floor of the onset frames (the first reliable frames after a pause).
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
     pub onset_floor: Option<f32>,
     /// Grid tracker: gain of the running mean curve that places the estimate between grid points
     /// (0 = parabola through the log-posterior, the earlier behaviour).
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
     pub refine_gain: Option<f32>,
     /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
-    #[arg(long, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Tracking")]
     pub refine_limit: Option<f32>,
     /// Grid tracker: the curve whose running mean places the estimate between grid points.
     #[arg(long, value_enum, help_heading = "Tracking")]
@@ -247,13 +247,13 @@ pub struct ConfigArgs {
     )]
     pub noise_gate: Option<OnOff>,
     /// Noise-floor gate: largest rise of the tracked floor, dB per second.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_rise: Option<f32>,
     /// Noise-floor gate: frame power above the floor (dB) where b starts to pass.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_open: Option<f32>,
     /// Noise-floor gate: frame power above the floor (dB) where b passes fully.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_full: Option<f32>,
     /// Frame onset weighting of the reliability b: on (the default preset) or off (the thesis).
     #[arg(
@@ -263,24 +263,24 @@ pub struct ConfigArgs {
     )]
     pub frame_onset: Option<OnOff>,
     /// Frame onset: frames of power history the rise is measured against.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::onset_history, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub frame_onset_history: Option<usize>,
     /// Frame onset: rise (dB) at and below which a frame gets the floor weight.
     #[arg(
-        long,
+        long, value_parser = crate::arg_values::finite,
         allow_negative_numbers = true,
         help_heading = "Reliability: weighting, noise gate, frame onset"
     )]
     pub frame_onset_low: Option<f32>,
     /// Frame onset: rise (dB) at and above which a frame gets full weight.
     #[arg(
-        long,
+        long, value_parser = crate::arg_values::finite,
         allow_negative_numbers = true,
         help_heading = "Reliability: weighting, noise gate, frame onset"
     )]
     pub frame_onset_high: Option<f32>,
     /// Frame onset: weight of frames at or below the low rise.
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub frame_onset_floor: Option<f32>,
     /// Blind self-calibration of the cardioids from the diffuse background: on (the default
     /// preset) or off (the thesis; also off with a measured --table, which already holds the array).
@@ -290,19 +290,19 @@ pub struct ConfigArgs {
     #[arg(long, value_enum, help_heading = "Self-calibration")]
     pub selfcal_adapt: Option<OnOff>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
-    #[arg(long, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub directness: Option<f32>,
     /// Onset exponent of the direct-sound peak weighting (0 = off).
-    #[arg(long, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub onset: Option<f32>,
     /// Absolute peak threshold on |X_omni| (0 = off).
-    #[arg(long, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub peak_threshold: Option<f32>,
     /// FDIV intensity smoothing pole.
-    #[arg(long, help_heading = "Baselines: FDIV and TDIV")]
+    #[arg(long, value_parser = crate::arg_values::pole, help_heading = "Baselines: FDIV and TDIV")]
     pub fdiv_pole: Option<f32>,
     /// TDIV smoothing pole.
-    #[arg(long, help_heading = "Baselines: FDIV and TDIV")]
+    #[arg(long, value_parser = crate::arg_values::pole, help_heading = "Baselines: FDIV and TDIV")]
     pub tdiv_pole: Option<f32>,
     /// Multi-talker tracks with persistent IDs (similarity method): on or off (the presets;
     /// `locate --tracks` and `eval` of a multi-talker folder switch them on).
@@ -345,6 +345,7 @@ impl ConfigArgs {
             c = cma_config::parse_over(&c, &text)
                 .map_err(|e| SimError::Other(format!("{}: {e}", path.display())))?;
         }
+        let before_flags = c;
         // A measured table already describes the real capsules: the self-calibration (which maps
         // them to the ideal model) is off with one unless --selfcal asks for it.
         if self.table.is_some() {
@@ -500,6 +501,7 @@ impl ConfigArgs {
             c.tdiv_pole = v;
         }
         self.options.apply(&mut c)?;
+        check_flags(&before_flags, &c)?;
         Ok(c)
     }
 
@@ -532,6 +534,29 @@ impl ConfigArgs {
             ))),
         }
     }
+}
+
+/// The core's check of `config`, made from `before_flags` by the command-line flags: a value it
+/// refuses is a usage error naming the flags that set it (`--band-lo: …`), not their file keys.
+/// A refusal no flag causes is left to the localizer's own check, with the input's rate and table.
+fn check_flags(before_flags: &LocatorConfig, config: &LocatorConfig) -> Result<()> {
+    let Err(e) = cma_config::validate_changes(before_flags, config) else {
+        return Ok(());
+    };
+    let flags: Vec<String> = e
+        .keys()
+        .iter()
+        .filter_map(|key| FLAG_KEYS.iter().find(|(_, k)| k == key))
+        .map(|(id, _)| format!("--{}", id.replace('_', "-")))
+        .collect();
+    if flags.is_empty() {
+        return Ok(());
+    }
+    let message = e.message();
+    let message = message
+        .strip_prefix("invalid configuration: ")
+        .unwrap_or(message);
+    Err(SimError::Usage(format!("{}: {message}", flags.join(", "))))
 }
 
 fn parse_measure(s: &str) -> Result<SimilarityMeasure> {

@@ -33,8 +33,9 @@ pub const FLAG_NAMES: [(Flags, &str); 5] = [
 /// What the flags mean, for `--help` texts.
 pub const FLAGS_HELP: &str = "flags is the decimal sum of: 1 SILENT (omni below the silence \
 threshold), 2 CLIPPED, 4 NON_FINITE (NaN/Inf samples replaced by 0), 8 NO_PEAKS (no usable \
-spectral peak), 16 NO_HISTORY (no reliable frame seen yet: the azimuth is the start value and the \
-confidence 0, normal for the first frames of a recording)";
+spectral peak), 16 NO_HISTORY (no reliable frame seen yet: nothing is tracked, the azimuth is the frame's own \
+untracked estimate, as azimuth_raw_deg, and the confidence 0; normal for the first frames of a \
+recording)";
 
 /// Names of the set flags, e.g. `["CLIPPED", "NO_HISTORY"]`.
 #[must_use]
@@ -80,6 +81,8 @@ pub struct Summary {
     pub with_history: usize,
     /// Leading frames with `NO_HISTORY` before the first frame with history.
     pub leading_without_history: usize,
+    /// Frames with NaN or infinite input samples (`NON_FINITE`).
+    pub non_finite: usize,
     /// Mean confidence over all frames.
     pub mean_confidence: f64,
     /// Duration of the input, s.
@@ -98,6 +101,10 @@ impl Summary {
             frames: rows.len(),
             with_history: rows.iter().filter(|r| !no_history(r)).count(),
             leading_without_history: rows.iter().take_while(|r| no_history(r)).count(),
+            non_finite: rows
+                .iter()
+                .filter(|r| r.estimate.flags.contains(Flags::NON_FINITE))
+                .count(),
             mean_confidence: if rows.is_empty() {
                 0.0
             } else {
@@ -106,6 +113,29 @@ impl Summary {
             audio_s,
             elapsed_s,
         }
+    }
+
+    /// Share of the frames with non-finite input, %.
+    fn non_finite_percent(&self) -> f64 {
+        if self.frames == 0 {
+            0.0
+        } else {
+            100.0 * self.non_finite as f64 / self.frames as f64
+        }
+    }
+
+    /// The warning line (no newline) when some frames had NaN or infinite input samples.
+    #[must_use]
+    pub fn non_finite_warning(&self) -> Option<String> {
+        (self.non_finite > 0).then(|| {
+            format!(
+                "locate: warning: {} of {} frames ({:.1} %) had NaN or infinite input samples \
+                 (flag 4 NON_FINITE; replaced by 0): their estimates say little about the input",
+                self.non_finite,
+                self.frames,
+                self.non_finite_percent()
+            )
+        })
     }
 
     /// The summary as one line (no newline).
@@ -126,9 +156,17 @@ impl Summary {
             1 => Some("the first frame carries".to_string()),
             n => Some(format!("the first {n} carry")),
         };
+        if self.non_finite > 0 {
+            s.push_str(&format!(
+                "; {} NON_FINITE (flags 4, {:.1} %): NaN/Inf input replaced by 0",
+                self.non_finite,
+                self.non_finite_percent()
+            ));
+        }
         if let Some(carry) = carry {
             s.push_str(&format!(
-                "; {carry} NO_HISTORY (flags 16): no reliable frame yet, azimuth is the start value"
+                "; {carry} NO_HISTORY (flags 16): no reliable frame yet, azimuth is the \
+                 frame's own untracked estimate (= azimuth_raw_deg), confidence 0"
             ));
         }
         s
@@ -197,5 +235,27 @@ mod tests {
         assert!(!Summary::of(&rows[2..], 1.0, 0.5)
             .line()
             .contains("NO_HISTORY"));
+        assert!(
+            !line.contains("start value") && line.contains("untracked"),
+            "{line}"
+        );
+        assert_eq!(s.non_finite_warning(), None);
+    }
+
+    #[test]
+    fn summary_reports_frames_with_non_finite_input() {
+        let bad = Flags(Flags::NON_FINITE.0 | Flags::NO_HISTORY.0);
+        let rows = [
+            row(0, 0.0, bad),
+            row(1, 0.0, bad),
+            row(2, 0.0, bad),
+            row(3, 0.5, Flags(0)),
+        ];
+        let s = Summary::of(&rows, 1.0, 0.5);
+        assert_eq!(s.non_finite, 3);
+        let line = s.line();
+        assert!(line.contains("3 NON_FINITE (flags 4, 75.0 %)"), "{line}");
+        let warning = s.non_finite_warning().unwrap();
+        assert!(warning.contains("3 of 4 frames (75.0 %)"), "{warning}");
     }
 }

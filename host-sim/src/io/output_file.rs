@@ -90,13 +90,36 @@ pub fn write(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()>
     }
 }
 
+/// The folder an output file `path` goes into (`.` for a bare name).
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Checks before any work that the folder of the output `path` exists (outputs into it are written
+/// at the end): the error names `path` and the missing folder. Links and device paths are left to
+/// [`write`].
+pub fn check_folder(path: &Path) -> Result<()> {
+    let dir = folder_of(path);
+    if std::fs::symlink_metadata(path).is_err() && !dir.is_dir() {
+        return Err(SimError::io(
+            path,
+            io::Error::new(
+                io::ErrorKind::NotFound,
+                format!("the folder {} does not exist", dir.display()),
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Writes `target` (a regular file or a new path, no link) atomically through a temporary file in
 /// its folder.
 fn replace(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let dir = match target.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    check_folder(target)?;
+    let dir = folder_of(target);
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -111,9 +134,16 @@ fn replace(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()>
         // The mode passed to open(2), which the umask reduces, as for `File::create`.
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let tmp = builder
-        .tempfile_in(dir)
-        .map_err(|e| SimError::io(target, e))?;
+    // The temporary file's hidden name is no business of the user's: the error names the target.
+    let tmp = builder.tempfile_in(dir).map_err(|e| {
+        let text = e.to_string();
+        let text = text
+            .split(" at path ")
+            .next()
+            .unwrap_or_default()
+            .to_string();
+        SimError::io(target, io::Error::new(e.kind(), text))
+    })?;
     if let Some(p) = existing {
         std::fs::set_permissions(tmp.path(), p).map_err(|e| SimError::io(target, e))?;
     }
@@ -148,6 +178,17 @@ mod tests {
         assert_eq!(e.to_string(), "failed");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "two\n");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_missing_folder_is_named_not_the_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("missing").join("out.csv");
+        let e = write(&p, text("x")).unwrap_err().to_string();
+        assert!(e.starts_with(&p.display().to_string()), "{e}");
+        assert!(e.contains("missing does not exist"), "{e}");
+        assert!(!e.contains(".partial"), "{e}");
+        assert!(check_folder(&dir.path().join("here.csv")).is_ok());
     }
 
     #[test]

@@ -628,6 +628,20 @@ pub fn ambix_to_cma1(w: f32, x: f32, y: f32) -> [f32; 4] {
     out
 }
 
+/// Checks that the WAV at `path` is mono, as a talker source (`scene --source`) must be: the error
+/// names the channel count it has.
+pub fn check_mono(path: &Path, flag: &str) -> Result<()> {
+    let channels = WavStream::open(path)?.spec().channels;
+    if channels != 1 {
+        return Err(SimError::Usage(format!(
+            "{flag} {}: a talker is a mono WAV (1 channel), this one has {channels} channels; mix \
+             it down first (e.g. `sox IN.wav -c 1 OUT.wav`)",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Reads a mono (or the mean of a multi-channel) source signal.
 pub fn read_mono(path: &Path) -> Result<(u32, Vec<f32>)> {
     let (spec, data) = read_interleaved(path)?;
