@@ -29,6 +29,7 @@
 
 use cma_core::CHANNELS;
 use cma_firmware::board_api::{Overrun, SampleSource};
+use cma_firmware::clock_plan::F446_SAI;
 use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
 use embassy_stm32::flash::{self, Flash};
@@ -105,8 +106,9 @@ const POLLS: u32 = 200_000;
 /// PLLSAICFGR without PLLSAIM on the F446 (its input divider, left at 0, an invalid value) and has
 /// no SAI1 clock selection for this chip.
 ///
-/// HSE 8 MHz / M 4 = 2 MHz → × N 172 = 344 MHz → / Q 7 / PLLSAIDIVQ 1 = 49.1429 MHz SAI clock; the
-/// SAI's MCKDIV 6 (÷ 12) gives a 4.0952 MHz master clock = 256 fs, so fs = 15 997 Hz (−0.019 %;
+/// The values are [`F446_SAI`]'s (host tested to give 16 kHz ± 0.1 %): HSE 8 MHz / M 4 = 2 MHz →
+/// × N 172 = 344 MHz → / Q 7 / PLLSAIDIVQ 1 = 49.1429 MHz SAI clock; the SAI's MCKDIV field 6
+/// (÷ 12, RM0390 §28.3.8) gives a 4.0952 MHz master clock = 256 fs, so fs = 15 997 Hz (−0.019 %;
 /// the core runs at its nominal 16 kHz, the azimuth does not depend on it) and BCLK = 128 fs =
 /// 2.048 MHz for 4 slots of 32 bits (a BCLK-to-FSYNC ratio the ADC's automatic clock detection
 /// supports at 16 kHz).
@@ -117,13 +119,14 @@ fn start_sai_clock() -> bool {
         return false;
     }
     pac::RCC.pllsaicfgr().write(|w| {
-        w.set_pllm(Pllm::DIV4);
-        w.set_plln(Plln::MUL172);
+        w.set_pllm(Pllm::from_bits(F446_SAI.pllsai_m));
+        w.set_plln(Plln::from_bits(F446_SAI.pllsai_n));
         w.set_pllp(Pllp::DIV8); // 43 MHz on the 48 MHz clock path, unused
-        w.set_pllq(Pllq::DIV7);
+        w.set_pllq(Pllq::from_bits(F446_SAI.pllsai_q));
     });
     pac::RCC.dckcfgr().modify(|w| {
-        w.set_pllsaidivq(Pllsaidivq::DIV1);
+        // The field holds the division − 1 (RM0390 RCC_DCKCFGR.PLLSAIDIVQ).
+        w.set_pllsaidivq(Pllsaidivq::from_bits(F446_SAI.pllsai_div_q - 1));
         w.set_sai1src(Sai1src::PLLSAI);
     });
     pac::RCC.cr().modify(|w| w.set_pllsaion(true));
@@ -325,20 +328,51 @@ fn setup_adc(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
             embassy_time::block_for(embassy_time::Duration::from_millis(2));
         }
     }
-    // DEV_STS1 reports the device mode; ASI_STS the sample rate and BCLK ratio it detected.
-    let mut status = [0u8; 2];
-    let ok = i2c
-        .blocking_write_read(ADC_ADDRESS, &[0x77], &mut status[..1])
-        .and_then(|()| i2c.blocking_write_read(ADC_ADDRESS, &[0x15], &mut status[1..]));
-    match ok {
-        Ok(()) => defmt::info!(
-            "TLV320ADC5140: DEV_STS1 {=u8:#x}, ASI_STS {=u8:#x}",
-            status[0],
-            status[1]
-        ),
-        Err(e) => defmt::error!("TLV320ADC5140: status read: {}", e),
+    check_adc_clocks(i2c);
+}
+
+/// Reads back DEV_STS1 (the device mode) and ASI_STS, the sample rate and BCLK ratio the ADC's
+/// clock detection found ([`tdm::ADC_ASI_STS`]), and logs an error unless they are 16 kHz and 128
+/// ([`tdm::ADC_EXPECTED_ASI_STS`]). The detection needs a few frames after power-up: the status
+/// is polled for up to [`ADC_STATUS_WAIT_MS`].
+fn check_adc_clocks(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
+    let mut asi_sts = 0xFF;
+    for _ in 0..ADC_STATUS_WAIT_MS {
+        embassy_time::block_for(embassy_time::Duration::from_millis(1));
+        let mut status = [0u8; 1];
+        if let Err(e) = i2c.blocking_write_read(ADC_ADDRESS, &[tdm::ADC_ASI_STS], &mut status) {
+            defmt::error!("TLV320ADC5140: ASI_STS read: {}", e);
+            return;
+        }
+        asi_sts = status[0];
+        if asi_sts == tdm::ADC_EXPECTED_ASI_STS {
+            break;
+        }
+    }
+    let mut dev_sts1 = [0u8; 1];
+    if let Err(e) = i2c.blocking_write_read(ADC_ADDRESS, &[0x77], &mut dev_sts1) {
+        defmt::error!("TLV320ADC5140: DEV_STS1 read: {}", e);
+    }
+    let (rate, ratio) = tdm::asi_status_fields(asi_sts);
+    if asi_sts == tdm::ADC_EXPECTED_ASI_STS {
+        defmt::info!(
+            "TLV320ADC5140: DEV_STS1 {=u8:#x}, ASI_STS {=u8:#x} (16 kHz, BCLK 128 fs)",
+            dev_sts1[0],
+            asi_sts
+        );
+    } else {
+        defmt::error!(
+            "TLV320ADC5140: ASI_STS {=u8:#x}: rate {} Hz, BCLK ratio {} (want 16000 Hz, 128); DEV_STS1 {=u8:#x}",
+            asi_sts,
+            tdm::asi_rate_hz(rate),
+            tdm::asi_ratio(ratio),
+            dev_sts1[0]
+        );
     }
 }
+
+/// Milliseconds the ADC's clock detection is given to report the bus's rate.
+const ADC_STATUS_WAIT_MS: u32 = 20;
 
 /// Configures clocks and peripherals.
 pub fn init() -> Board {
@@ -362,10 +396,12 @@ pub fn init() -> Board {
     cfg.frame_sync_polarity = sai::FrameSyncPolarity::ActiveHigh;
     cfg.frame_sync_active_level_length = sai::word::U7(1);
     cfg.frame_sync_definition = sai::FrameSyncDefinition::StartOfFrame;
-    cfg.frame_length = tdm::FRAME_BITS as u16;
+    cfg.frame_length = F446_SAI.frame_bits as u16;
     cfg.clock_strobe = sai::ClockStrobe::Rising;
-    cfg.master_clock_divider = sai::MasterClockDivider::DIV6;
-    cfg.nodiv = false;
+    // `MasterClockDivider` is stm32-metapac's `Mckdiv`, named by the division: the field value 6
+    // is `DIV12` (÷ 12), not `DIV6` (field value 3, which ran the bus at 32 kHz).
+    cfg.master_clock_divider = sai::MasterClockDivider::from_bits(F446_SAI.mckdiv);
+    cfg.nodiv = F446_SAI.nodiv;
     cfg.fifo_threshold = sai::FifoThreshold::Quarter;
     let (_block_a, block_b) = sai::split_subblocks(p.SAI1);
     // The driver enables the block at once (the bit clock runs from here on, which the ADC's PLL

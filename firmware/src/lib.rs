@@ -2,6 +2,8 @@
 //!
 //! * [`board_api`] — the board interface the application is written against (sample blocks with
 //!   overrun reports, a frame writer, a watchdog);
+//! * [`clock_plan`] — the STM32 boards' audio clock plans (the register values they write) and
+//!   the sample rates they give;
 //! * [`i2s_align`] — frame and channel alignment of the two I2S receive streams after a (re)start,
 //!   and the channel-side check that finds a stream that slipped;
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
@@ -27,6 +29,7 @@
 extern crate std;
 
 pub mod board_api;
+pub mod clock_plan;
 pub mod embedded_config;
 pub mod emulated;
 pub mod estimate_store;
