@@ -34,6 +34,7 @@ pub mod embedded_config;
 pub mod emulated;
 pub mod estimate_store;
 pub mod i2s_align;
+pub mod i2s_capture;
 pub mod sample;
 pub mod stats;
 pub mod stored_capsules;
