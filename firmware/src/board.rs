@@ -23,7 +23,10 @@
 
 use cma_core::CHANNELS;
 use cma_firmware::board_api::{Overrun, SampleSource};
-use cma_firmware::i2s_align::{align, channel_matches, StreamPosition};
+use cma_firmware::clock_plan::{I2sClockPlan, F411_I2S};
+use cma_firmware::i2s_capture::{
+    I2sCapture, I2sHardware, ReadError, Receiver, RingError, SpiStatus, BLOCK_WORDS,
+};
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::i2s::{self, I2S};
@@ -31,6 +34,7 @@ use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
+use embassy_time::{with_timeout, Duration, Timer};
 use static_cell::ConstStaticCell;
 
 /// Input sample rate, Hz (the ADCs' LRCK; nominal: the clock plan gives 15 997 Hz).
@@ -43,16 +47,22 @@ pub use stm32_drivers::{FrameTx, Watchdog};
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz).
-pub const BLOCK_FRAMES: usize = 32;
+pub const BLOCK_FRAMES: usize = cma_firmware::i2s_capture::BLOCK_FRAMES;
 /// Sample frames held by each DMA ring buffer (8 ms at 16 kHz): the longest the DSP task may lag
 /// behind before an overrun.
-pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
+pub const RING_FRAMES: usize = cma_firmware::i2s_capture::RING_FRAMES;
+/// Halfwords of each DMA ring buffer.
+const RING_WORDS: usize = RING_FRAMES * WORDS_PER_STEREO_FRAME;
 /// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
 /// resets the chip.
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 
-const BLOCK_WORDS: usize = BLOCK_FRAMES * WORDS_PER_STEREO_FRAME;
-const RING_WORDS: usize = RING_FRAMES * WORDS_PER_STEREO_FRAME;
+/// SYSCLK, Hz (the clock plan below).
+const SYSCLK_HZ: u32 = 100_000_000;
+/// CPU cycles per I2S bit clock (BCK 1.0238 MHz), rounded up.
+const CYCLES_PER_BIT_CLOCK: u32 = SYSCLK_HZ / (64 * SAMPLE_RATE_HZ) + 1;
+/// How long a block read may wait: two rings' worth. Longer means the stream has stopped.
+const READ_TIMEOUT: Duration = Duration::from_millis(16);
 
 bind_interrupts!(struct Irqs {
     DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
@@ -66,16 +76,17 @@ static RING_A: ConstStaticCell<[u16; RING_WORDS]> = ConstStaticCell::new([0; RIN
 static RING_B: ConstStaticCell<[u16; RING_WORDS]> = ConstStaticCell::new([0; RING_WORDS]);
 
 /// Clock plan: HSE 25 MHz → PLL (M 25, N 200, P 2) → SYSCLK 100 MHz, APB1 50 MHz, APB2 100 MHz;
-/// PLLI2S (M 25, N 258, R 3) → 86 MHz I2S kernel clock → MCK = 86 MHz / 21 = 4.095 MHz (I2SDIV 10,
-/// ODD 1, as embassy computes it), fs = MCK / 256 = 15.997 kHz (−0.019 %; the core runs at its
-/// nominal 16 kHz, the azimuth does not depend on it). The PCM1808 class ADCs take SCKI = 256 fs at
-/// 16 kHz; BCK = 64 fs = 1.024 MHz.
+/// PLLI2S from [`F411_I2S`] (M 25, N 258, R 3) → 86 MHz I2S kernel clock → MCK = 86 MHz / 21 =
+/// 4.095 MHz (I2SDIV 10, ODD 1, as embassy computes it; [`check_i2s_clocks`] reads them back),
+/// fs = MCK / 256 = 15.997 kHz (−0.019 %; the core runs at its nominal 16 kHz, the azimuth does
+/// not depend on it). The PCM1808 class ADCs take SCKI = 256 fs at 16 kHz; BCK = 64 fs =
+/// 1.024 MHz. The plan is host tested (`clock_plan`): 16 kHz ± 0.1 %.
 fn clock_config() -> Config {
     use rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv};
     use rcc::{PllRDiv, PllSource, Sysclk};
     let mut config = Config::default();
     config.rcc.hse = Some(Hse {
-        freq: Hertz::mhz(25),
+        freq: Hertz(F411_I2S.hse_hz),
         mode: HseMode::Oscillator,
     });
     config.rcc.pll_src = PllSource::HSE;
@@ -87,11 +98,11 @@ fn clock_config() -> Config {
         divr: None,
     });
     config.rcc.plli2s = Some(Pll {
-        prediv: PllPreDiv::DIV25,
-        mul: PllMul::MUL258,
+        prediv: PllPreDiv::from_bits(F411_I2S.plli2s_m),
+        mul: PllMul::from_bits(F411_I2S.plli2s_n),
         divp: None,
         divq: None,
-        divr: Some(PllRDiv::DIV3),
+        divr: Some(PllRDiv::from_bits(F411_I2S.plli2s_r)),
     });
     config.rcc.sys = Sysclk::PLL1_P;
     config.rcc.ahb_pre = AHBPrescaler::DIV1;
@@ -100,189 +111,209 @@ fn clock_config() -> Config {
     config
 }
 
-/// The four capsules: two I2S receivers on shared bit and word clocks (I2S2 master, I2S3 slave).
-pub struct AudioIn {
+/// Reads back what embassy wrote to RCC_PLLI2SCFGR and SPI2_I2SPR and logs an error when it is
+/// not [`F411_I2S`] (then the ADCs do not run at 16 kHz).
+fn check_i2s_clocks() {
+    let pll = pac::RCC.plli2scfgr().read();
+    let pr = pac::SPI2.i2spr().read();
+    let written = I2sClockPlan {
+        plli2s_m: pll.pllm().to_bits(),
+        plli2s_n: pll.plln().to_bits(),
+        plli2s_r: pll.pllr().to_bits(),
+        i2sdiv: pr.i2sdiv(),
+        odd: pr.odd() == pac::spi::vals::Odd::ODD,
+        mckoe: pr.mckoe(),
+        ..F411_I2S
+    };
+    if written != F411_I2S {
+        defmt::error!(
+            "I2S clocks: PLLI2S M {} N {} R {}, I2SDIV {} ODD {} MCKOE {}: not the 16 kHz plan",
+            written.plli2s_m,
+            written.plli2s_n,
+            written.plli2s_r,
+            written.i2sdiv,
+            written.odd,
+            written.mckoe
+        );
+    }
+}
+
+/// The two I2S receivers (I2S2 master, I2S3 slave on shared bit and word clocks) with their
+/// DMA rings and block buffers, as [`I2sHardware`] for [`I2sCapture`]: the HAL for starting and
+/// reading the rings, the PAC for the registers.
+struct Receivers {
     a: I2S<'static, u16>,
     b: I2S<'static, u16>,
     words_a: [u16; BLOCK_WORDS],
     words_b: [u16; BLOCK_WORDS],
-    /// Both receivers were (re)started, master first and the slave armed on WS.
-    started: bool,
-    /// What lies before the first frame both rings hold has been discarded.
-    aligned: bool,
+}
+
+/// The SPI/I2S peripheral of a receiver.
+fn spi(rx: Receiver) -> pac::spi::Spi {
+    match rx {
+        Receiver::Master => pac::SPI2,
+        Receiver::Slave => pac::SPI3,
+    }
+}
+
+/// The DMA1 stream of a receiver (SPI2_RX: stream 3, SPI3_RX: stream 0; RM0383 Table 27).
+fn stream(rx: Receiver) -> usize {
+    match rx {
+        Receiver::Master => 3,
+        Receiver::Slave => 0,
+    }
+}
+
+impl I2sHardware for Receivers {
+    fn start_driver(&mut self, rx: Receiver) {
+        match rx {
+            Receiver::Master => self.a.start(),
+            Receiver::Slave => self.b.start(),
+        }
+    }
+
+    fn status(&mut self, rx: Receiver) -> SpiStatus {
+        let sr = spi(rx).sr().read();
+        SpiStatus {
+            overrun: sr.ovr(),
+            frame_error: sr.fre(),
+            right: sr.chside() == pac::spi::vals::Chside::RIGHT,
+        }
+    }
+
+    fn read_data_register(&mut self, rx: Receiver) {
+        let _ = spi(rx).dr().read();
+    }
+
+    fn set_i2s_enabled(&mut self, rx: Receiver, on: bool) {
+        spi(rx).i2scfgr().modify(|w| w.set_i2se(on));
+    }
+
+    fn dma_remaining(&mut self, rx: Receiver) -> usize {
+        usize::from(pac::DMA1.st(stream(rx)).ndtr().read().ndt())
+    }
+
+    fn dma_enabled(&mut self, rx: Receiver) -> bool {
+        pac::DMA1.st(stream(rx)).cr().read().en()
+    }
+
+    fn dma_circular(&mut self, rx: Receiver) -> bool {
+        pac::DMA1.st(stream(rx)).cr().read().circ()
+    }
+
+    fn set_dma_enabled(&mut self, rx: Receiver, on: bool) {
+        pac::DMA1.st(stream(rx)).cr().modify(|w| w.set_en(on));
+    }
+
+    fn set_dma_remaining(&mut self, rx: Receiver, n: usize) {
+        // Note(cast): the ring (≤ 65535 halfwords) is checked where it is declared.
+        pac::DMA1
+            .st(stream(rx))
+            .ndtr()
+            .write(|w| w.set_ndt(n as u16));
+    }
+
+    fn clear_dma_flags(&mut self, rx: Receiver) {
+        let n = stream(rx);
+        pac::DMA1.ifcr(n / 4).write(|w| {
+            w.set_tcif(n % 4, true);
+            w.set_htif(n % 4, true);
+            w.set_teif(n % 4, true);
+            w.set_dmeif(n % 4, true);
+            w.set_feif(n % 4, true);
+        });
+    }
+
+    fn reset_ring_reader(&mut self, rx: Receiver) {
+        match rx {
+            Receiver::Master => self.a.clear(),
+            Receiver::Slave => self.b.clear(),
+        }
+    }
+
+    fn ws_high(&mut self) -> bool {
+        // PA15, the slave's WS input, wired to the master's WS (PB12).
+        pac::GPIOA.idr().read().idr(15) == pac::gpio::vals::Idr::HIGH
+    }
+
+    fn wait_bit_clock(&mut self) {
+        cortex_m::asm::delay(CYCLES_PER_BIT_CLOCK);
+    }
+
+    fn without_interrupts<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R {
+        cortex_m::interrupt::free(|_| f(self))
+    }
+
+    async fn read_ring(&mut self, rx: Receiver, n: usize) -> Result<(), RingError> {
+        let read = match rx {
+            Receiver::Master => {
+                with_timeout(READ_TIMEOUT, self.a.read(&mut self.words_a[..n])).await
+            }
+            Receiver::Slave => {
+                with_timeout(READ_TIMEOUT, self.b.read(&mut self.words_b[..n])).await
+            }
+        };
+        match read {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(_)) => Err(RingError::Overrun),
+            Err(_) => Err(RingError::Timeout),
+        }
+    }
+
+    async fn read_blocks(&mut self) -> (Result<(), RingError>, Result<(), RingError>) {
+        let both = embassy_futures::join::join(
+            self.a.read(&mut self.words_a),
+            self.b.read(&mut self.words_b),
+        );
+        let ring = |r: Result<(), i2s::Error>| r.map_err(|_| RingError::Overrun);
+        match with_timeout(READ_TIMEOUT, both).await {
+            Ok((ra, rb)) => (ring(ra), ring(rb)),
+            Err(_) => (Err(RingError::Timeout), Err(RingError::Timeout)),
+        }
+    }
+
+    async fn wait_frames(&mut self, frames: u32) {
+        Timer::after_micros(u64::from(frames) * 1_000_000 / u64::from(SAMPLE_RATE_HZ) + 1).await;
+    }
+}
+
+// NDTR is 16 bits.
+const _: () = assert!(RING_WORDS <= u16::MAX as usize);
+
+/// The four capsules: the two receivers and their capture ([`I2sCapture`]).
+pub struct AudioIn {
+    receivers: Receivers,
+    capture: I2sCapture,
 }
 
 impl SampleSource<BLOCK_FRAMES> for AudioIn {
-    /// Starts capturing: the master, then the slave armed on the word select
-    /// ([`AudioIn::restart_in_step`]); the first `read` discards what lies before the first frame
-    /// both hold.
+    /// Starts both receivers; the first `read` restarts them in step ([`I2sCapture`]).
     fn start(&mut self) {
-        self.started = self.restart_in_step();
-        self.aligned = false;
+        self.capture.start(&mut self.receivers);
     }
 
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
     /// channel order (omni, card 0°, card 120°, card 240°).
     ///
-    /// On a DMA overrun of either receiver, or when a stream's channel side does not match its
-    /// position ([`AudioIn::channels_in_place`]), both receivers are halted (I2SE cleared) and
-    /// restarted in step ([`AudioIn::resync`]), and [`Overrun`] is returned; `out` is then not
-    /// written.
+    /// On a lapped ring, a receiver's OVR or FRE, a stopped stream or a stream whose channel side
+    /// does not match its position, both receivers are restarted in step through the registers
+    /// ([`I2sCapture::read_block`]) and [`Overrun`] is returned; `out` is then not written. When
+    /// the restart fails [`cma_firmware::i2s_capture::RESYNC_ATTEMPTS`] times in a row, the
+    /// firmware panics (and the watchdog resets the chip).
     async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
-        if !self.aligned {
-            if !(self.started && self.discard_to_common_frame().await) {
-                self.resync().await;
-                return Err(Overrun);
+        match self.capture.read_block(&mut self.receivers).await {
+            Ok(()) => {
+                interleave_stereo_pairs(&self.receivers.words_a, &self.receivers.words_b, out);
+                Ok(())
             }
-            self.aligned = true;
-        }
-        let (ra, rb) = embassy_futures::join::join(
-            self.a.read(&mut self.words_a),
-            self.b.read(&mut self.words_b),
-        )
-        .await;
-        if ra.is_err() || rb.is_err() || !Self::channels_in_place() {
-            self.resync().await;
-            return Err(Overrun);
-        }
-        interleave_stereo_pairs(&self.words_a, &self.words_b, out);
-        Ok(())
-    }
-}
-
-/// Restarts of the receivers tried before giving up (then the watchdog resets the chip).
-const RESYNC_ATTEMPTS: u32 = 8;
-/// Polls of the word-select pin before a level is given up on (≥ 10 frames at 100 MHz).
-const WS_POLLS: u32 = 20_000;
-
-/// Clears I2SE, the enable bit of the I2S peripheral (the HAL's `stop` method clears only SPE, which in
-/// I2S mode leaves the peripheral running), then the receive flags (OVR is cleared by reading DR,
-/// then SR).
-fn disable_i2s(regs: pac::spi::Spi) {
-    regs.i2scfgr().modify(|w| w.set_i2se(false));
-    let _ = regs.dr().read();
-    let _ = regs.sr().read();
-}
-
-/// Waits until the slave's word-select input (PA15, wired to the master's WS) is at `high`.
-fn wait_for_ws(high: bool) -> bool {
-    let level = if high {
-        pac::gpio::vals::Idr::HIGH
-    } else {
-        pac::gpio::vals::Idr::LOW
-    };
-    (0..WS_POLLS).any(|_| pac::GPIOA.idr().read().idr(15) == level)
-}
-
-/// Halfwords the DMA stream `n` of DMA1 has written into its ring since it started (valid for
-/// the first lap of the ring).
-fn dma_received(n: usize) -> usize {
-    RING_WORDS - usize::from(pac::DMA1.st(n).ndtr().read().ndt())
-}
-
-/// Waits (at most [`WS_POLLS`] polls, ≥ one halfword time) for DMA1 stream `n` to move a
-/// halfword from `spi`, then reads the channel side of that halfword: `(position in the ring, right
-/// channel)`; `None` if nothing moved or another halfword came in between.
-fn channel_snapshot(n: usize, spi: pac::spi::Spi) -> Option<(usize, bool)> {
-    cortex_m::interrupt::free(|_| {
-        let before = pac::DMA1.st(n).ndtr().read().ndt();
-        let moved = (0..WS_POLLS)
-            .map(|_| pac::DMA1.st(n).ndtr().read().ndt())
-            .find(|&ndt| ndt != before)?;
-        let right = spi.sr().read().chside() == pac::spi::vals::Chside::RIGHT;
-        // The next halfword is ≈ 5 µs away: a change here means the reading straddled it.
-        (pac::DMA1.st(n).ndtr().read().ndt() == moved)
-            .then(|| ((RING_WORDS - usize::from(moved)) % RING_WORDS, right))
-    })
-}
-
-impl AudioIn {
-    /// Whether both streams' channel sides match their ring positions ([`channel_matches`]): ring
-    /// position 0 is a frame start for both after a restart in step.
-    fn channels_in_place() -> bool {
-        [(3, pac::SPI2), (0, pac::SPI3)]
-            .into_iter()
-            .all(|(n, spi)| {
-                let ok =
-                    channel_snapshot(n, spi).is_some_and(|(at, right)| channel_matches(at, right));
-                if !ok {
-                    defmt::warn!("I2S stream on DMA1 stream {} out of step: restarting", n);
-                }
-                ok
-            })
-    }
-
-    /// Halts both receivers for real and restarts them in step, until that succeeds
-    /// ([`RESYNC_ATTEMPTS`]; after that the firmware panics and the watchdog resets the chip).
-    async fn resync(&mut self) {
-        for attempt in 1..=RESYNC_ATTEMPTS {
-            self.a.stop().await;
-            self.b.stop().await;
-            disable_i2s(pac::SPI3);
-            disable_i2s(pac::SPI2);
-            if self.restart_in_step() && self.discard_to_common_frame().await {
-                self.started = true;
-                self.aligned = true;
-                return;
+            Err(ReadError::Realigned(fault)) => {
+                defmt::warn!("I2S capture: {}: restarted in step", fault);
+                Err(Overrun)
             }
-            defmt::warn!("I2S restart {} not in step", attempt);
-        }
-        defmt::panic!("I2S receivers cannot be restarted in step");
-    }
-
-    /// Starts the master (it begins a frame, left channel first, with its DMA at ring position 0),
-    /// then arms the slave while WS is high (the master's right channel): a slave in I2S Philips
-    /// mode must be enabled while WS is high, or it starts at once, out of step (STM32F4 errata,
-    /// "WS level must be set by the external master when enabling the I2S"); armed so, it starts
-    /// at the next left channel, one frame after the master. Returns `false` when WS does not
-    /// toggle.
-    fn restart_in_step(&mut self) -> bool {
-        cortex_m::interrupt::free(|_| {
-            self.a.start();
-            // The master's first frame: WS low (left), then high (right).
-            if !(wait_for_ws(false) && wait_for_ws(true)) {
-                return false;
-            }
-            self.b.start();
-            true
-        })
-    }
-
-    /// Reads both DMA positions at one instant and discards from each ring what lies before the
-    /// first frame both hold ([`align`]); the phase of the frame on the wires is the master's.
-    async fn discard_to_common_frame(&mut self) -> bool {
-        // A few frames in, so that the slave has started.
-        embassy_time::Timer::after_micros(200).await;
-        let (ra, rb) = loop {
-            let (a1, b1) = (dma_received(3), dma_received(0));
-            let (a2, b2) = (dma_received(3), dma_received(0));
-            if (a1, b1) == (a2, b2) {
-                break (a1, b1);
-            }
-        };
-        let master = StreamPosition::from_frame_start(ra);
-        let slave = StreamPosition {
-            received: rb,
-            phase: master.phase,
-        };
-        // The HAL's ring reads whole frames counted from its DMA start, so only whole frames can
-        // be discarded: a slave that started mid-frame is restarted instead.
-        let Ok((skip_a, skip_b)) = align(master, slave) else {
-            return false;
-        };
-        if skip_a % WORDS_PER_STEREO_FRAME != 0 || skip_b % WORDS_PER_STEREO_FRAME != 0 {
-            return false;
-        }
-        for (i2s, mut skip) in [(&mut self.a, skip_a), (&mut self.b, skip_b)] {
-            while skip > 0 {
-                let n = skip.min(BLOCK_WORDS);
-                if i2s.read(&mut self.words_a[..n]).await.is_err() {
-                    return false;
-                }
-                skip -= n;
+            Err(ReadError::Stuck(fault)) => {
+                defmt::panic!("I2S receivers cannot be restarted in step ({})", fault)
             }
         }
-        true
     }
 }
 
@@ -349,14 +380,17 @@ pub fn init() -> Board {
 
     let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
 
+    check_i2s_clocks();
+
     Board {
         audio: AudioIn {
-            a,
-            b,
-            words_a: [0; BLOCK_WORDS],
-            words_b: [0; BLOCK_WORDS],
-            started: false,
-            aligned: false,
+            receivers: Receivers {
+                a,
+                b,
+                words_a: [0; BLOCK_WORDS],
+                words_b: [0; BLOCK_WORDS],
+            },
+            capture: I2sCapture::new(RING_WORDS, BLOCK_WORDS),
         },
         uart: FrameTx::new(uart, "USART1"),
         watchdog,

@@ -192,7 +192,11 @@ mod tests {
         let vco_in = f64::from(p.hse_hz) / f64::from(p.plli2s_m);
         assert!((0.95e6..=2.1e6).contains(&vco_in));
         assert!((100e6..=432e6).contains(&(vco_in * f64::from(p.plli2s_n))));
-        assert!(within_tolerance(p.sample_rate_hz(), SAMPLE_RATE_HZ), "{}", p.sample_rate_hz());
+        assert!(
+            within_tolerance(p.sample_rate_hz(), SAMPLE_RATE_HZ),
+            "{}",
+            p.sample_rate_hz()
+        );
         // The PCM1808 wants SCKI = 256 fs and BCK = 64 fs.
         assert!((p.master_clock_hz() / p.sample_rate_hz() - 256.0).abs() < 1e-9);
         assert!((p.bit_clock_hz() - 1.0238e6).abs() < 100.0);
@@ -209,7 +213,11 @@ mod tests {
         let vco_in = f64::from(p.hse_hz) / f64::from(p.pllsai_m);
         assert!((0.95e6..=2.1e6).contains(&vco_in));
         assert!((100e6..=432e6).contains(&(vco_in * f64::from(p.pllsai_n))));
-        assert!(within_tolerance(p.sample_rate_hz(), SAMPLE_RATE_HZ), "{}", p.sample_rate_hz());
+        assert!(
+            within_tolerance(p.sample_rate_hz(), SAMPLE_RATE_HZ),
+            "{}",
+            p.sample_rate_hz()
+        );
         // SCK = MCLK × (FRL + 1) / 256 (RM0390 §28.3.8) gives the same bit clock.
         let sck = p.master_clock_hz() * p.frame_bits as f64 / 256.0;
         assert!((sck - p.bit_clock_hz()).abs() < 1e-3);

@@ -110,7 +110,7 @@ pub enum Fault {
     ChannelSide(Receiver),
     /// The stream's NDTR did not move for [`MOVE_POLLS`] polls.
     Stalled(Receiver),
-    /// The capture has not been (re)started in step yet.
+    /// The first restart in step, after [`I2sCapture::start`], failed.
     NotStarted,
 }
 
@@ -180,8 +180,11 @@ impl I2sCapture {
     /// whole frames; the ring a whole number of blocks).
     #[must_use]
     pub const fn new(ring_words: usize, block_words: usize) -> Self {
-        assert!(ring_words % WORDS_PER_STEREO_FRAME == 0 && block_words % WORDS_PER_STEREO_FRAME == 0);
-        assert!(block_words > 0 && ring_words % block_words == 0);
+        assert!(
+            ring_words.is_multiple_of(WORDS_PER_STEREO_FRAME)
+                && block_words.is_multiple_of(WORDS_PER_STEREO_FRAME)
+        );
+        assert!(block_words > 0 && ring_words.is_multiple_of(block_words));
         Self {
             ring_words,
             block_words,
@@ -189,28 +192,28 @@ impl I2sCapture {
         }
     }
 
-    /// Starts both drivers, then restarts the receivers in step ([`Self::resync`]). `false`
-    /// when that failed [`RESYNC_ATTEMPTS`] times.
-    pub async fn start<H: I2sHardware>(&mut self, hw: &mut H) -> bool {
+    /// Starts both drivers (the HAL's `I2S::start`: streams and receivers running, not yet in
+    /// step); the first [`Self::read_block`] restarts them in step.
+    pub fn start<H: I2sHardware>(&mut self, hw: &mut H) {
         hw.start_driver(Receiver::Master);
         hw.start_driver(Receiver::Slave);
-        self.resync(hw).await
+        self.aligned = false;
     }
 
     /// Reads the next block of both receivers into their block buffers and checks the
-    /// receivers ([`receiver_health`]). On a fault the receivers are restarted in step
+    /// receivers ([`receiver_health`]). Receivers not yet in step (after [`Self::start`]) are
+    /// restarted in step first. On a fault the receivers are restarted in step
     /// ([`Self::resync`]) and the block is not delivered.
     pub async fn read_block<H: I2sHardware>(&mut self, hw: &mut H) -> Result<(), ReadError> {
-        let fault = if self.aligned {
-            match hw.read_blocks().await {
-                (Err(e), _) => Some(Fault::Ring(Receiver::Master, e)),
-                (_, Err(e)) => Some(Fault::Ring(Receiver::Slave, e)),
-                (Ok(()), Ok(())) => Receiver::BOTH
-                    .into_iter()
-                    .find_map(|rx| receiver_health(hw, rx, self.ring_words).err()),
-            }
-        } else {
-            Some(Fault::NotStarted)
+        if !self.aligned && !self.resync(hw).await {
+            return Err(ReadError::Stuck(Fault::NotStarted));
+        }
+        let fault = match hw.read_blocks().await {
+            (Err(e), _) => Some(Fault::Ring(Receiver::Master, e)),
+            (_, Err(e)) => Some(Fault::Ring(Receiver::Slave, e)),
+            (Ok(()), Ok(())) => Receiver::BOTH
+                .into_iter()
+                .find_map(|rx| receiver_health(hw, rx, self.ring_words).err()),
         };
         match fault {
             None => Ok(()),
@@ -367,7 +370,10 @@ pub async fn discard_to_common_frame<H: I2sHardware>(
     if skip_master % WORDS_PER_STEREO_FRAME != 0 || skip_slave % WORDS_PER_STEREO_FRAME != 0 {
         return false;
     }
-    for (rx, mut skip) in [(Receiver::Master, skip_master), (Receiver::Slave, skip_slave)] {
+    for (rx, mut skip) in [
+        (Receiver::Master, skip_master),
+        (Receiver::Slave, skip_slave),
+    ] {
         while skip > 0 {
             let n = skip.min(block_words);
             if hw.read_ring(rx, n).await.is_err() {
