@@ -27,6 +27,7 @@ use cma_firmware::clock_plan::{I2sClockPlan, F411_I2S};
 use cma_firmware::i2s_capture::{
     I2sCapture, I2sHardware, ReadError, Receiver, RingError, SpiStatus, BLOCK_WORDS,
 };
+use cma_firmware::restart_mask::RestartMask;
 use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::i2s::{self, I2S};
@@ -280,16 +281,20 @@ impl I2sHardware for Receivers {
 // NDTR is 16 bits.
 const _: () = assert!(RING_WORDS <= u16::MAX as usize);
 
-/// The four capsules: the two receivers and their capture ([`I2sCapture`]).
+/// The four capsules: the two receivers, their capture ([`I2sCapture`]) and the masks of the
+/// ADCs' restart transients ([`RestartMask`]: the PCM1808s output zeros, then fade in, after
+/// their clocks stopped).
 pub struct AudioIn {
     receivers: Receivers,
     capture: I2sCapture,
+    transient: RestartMask<2>,
 }
 
 impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// Starts both receivers; the first `read` restarts them in step ([`I2sCapture`]).
     fn start(&mut self) {
         self.capture.start(&mut self.receivers);
+        self.transient.restarted();
     }
 
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
@@ -300,14 +305,19 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// ([`I2sCapture::read_block`]) and [`Overrun`] is returned; `out` is then not written. When
     /// the restart fails [`cma_firmware::i2s_capture::RESYNC_ATTEMPTS`] times in a row, the
     /// firmware panics (and the watchdog resets the chip).
+    ///
+    /// After the start and every restart, the ADCs' transient (zeros, then the fade-in) comes as
+    /// NaN frames, which the localizer flags and does not use ([`RestartMask`]).
     async fn read(&mut self, out: &mut [[f32; CHANNELS]; BLOCK_FRAMES]) -> Result<(), Overrun> {
         match self.capture.read_block(&mut self.receivers).await {
             Ok(()) => {
                 interleave_stereo_pairs(&self.receivers.words_a, &self.receivers.words_b, out);
+                self.transient.apply(out);
                 Ok(())
             }
             Err(ReadError::Realigned(fault)) => {
                 defmt::warn!("I2S capture: {}: restarted in step", fault);
+                self.transient.restarted();
                 Err(Overrun)
             }
             Err(ReadError::Stuck(fault)) => {
@@ -391,6 +401,7 @@ pub fn init() -> Board {
                 words_b: [0; BLOCK_WORDS],
             },
             capture: I2sCapture::new(RING_WORDS, BLOCK_WORDS),
+            transient: RestartMask::new(),
         },
         uart: FrameTx::new(uart, "USART1"),
         watchdog,

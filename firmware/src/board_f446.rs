@@ -30,6 +30,7 @@
 use cma_core::CHANNELS;
 use cma_firmware::board_api::{Overrun, SampleSource};
 use cma_firmware::clock_plan::F446_SAI;
+use cma_firmware::restart_mask::RestartMask;
 use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
 use embassy_stm32::flash::{self, Flash};
@@ -142,6 +143,8 @@ fn sai_block() -> pac::sai::Ch {
 pub struct AudioIn {
     sai: Sai<'static, peripherals::SAI1, u32>,
     words: [u32; BLOCK_WORDS],
+    /// The ADC's transient after a restart (a clock-error mute, then its ramp; [`RestartMask`]).
+    transient: RestartMask<1>,
 }
 
 /// Restarts of the receiver tried before giving up (then the watchdog resets the chip).
@@ -157,7 +160,9 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     }
 
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
-    /// channel order ([`tdm::deinterleave`]).
+    /// channel order ([`tdm::deinterleave`]). After the start and every restart, the ADC's
+    /// transient comes as NaN frames, which the localizer flags and does not use
+    /// ([`RestartMask`]).
     ///
     /// Returns [`Overrun`] (`out` not written) when samples were lost:
     /// * the DMA lapped the ring (the HAL's overrun): the HAL continues at the DMA position of that
@@ -176,6 +181,7 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
             return Err(Overrun);
         }
         tdm::deinterleave(&self.words, out);
+        self.transient.apply(out);
         Ok(())
     }
 }
@@ -195,6 +201,7 @@ impl AudioIn {
     /// Restarts the receiver at a frame sync until that succeeds ([`RESYNC_ATTEMPTS`]; after that
     /// the firmware panics and the watchdog resets the chip).
     fn resync(&mut self) {
+        self.transient.restarted();
         for attempt in 1..=RESYNC_ATTEMPTS {
             if self.restart_at_frame_sync() {
                 return;
@@ -433,6 +440,7 @@ pub fn init() -> Board {
         audio: AudioIn {
             sai,
             words: [0; BLOCK_WORDS],
+            transient: RestartMask::new(),
         },
         uart: FrameTx::new(uart, "USART2"),
         watchdog,

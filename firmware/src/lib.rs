@@ -6,6 +6,8 @@
 //!   the sample rates they give;
 //! * [`i2s_align`] — frame and channel alignment of the two I2S receive streams after a (re)start,
 //!   and the channel-side check that finds a stream that slipped;
+//! * [`restart_mask`] — the ADCs' restart transient (zeros, then a fade-in) masked as flagged
+//!   (NaN) sample frames;
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
 //! * [`tdm`] — 4-slot TDM words (one 4-channel ADC on the STM32F446 board's SAI) to `f32`
@@ -35,6 +37,7 @@ pub mod emulated;
 pub mod estimate_store;
 pub mod i2s_align;
 pub mod i2s_capture;
+pub mod restart_mask;
 pub mod sample;
 pub mod stats;
 pub mod stored_capsules;
