@@ -26,7 +26,9 @@ use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::capsule_estimate_record::key_of;
 use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
-use cma_firmware::board_api::{FrameWriter, SampleSource, Watchdog as _};
+use cma_firmware::board_api::{
+    FrameWriter, SampleSource, Watchdog as _, ERASE_WATCHDOG_TIMEOUT_US,
+};
 use cma_firmware::estimate_store::{EstimateStore, SavePolicy};
 use cma_firmware::stats::Counters;
 use cma_firmware::stored_capsules;
@@ -96,7 +98,9 @@ type Persistence = (EstimateStore<board::EstimateFlash>, SavePolicy);
 static PERSISTENCE: StaticCell<Persistence> = StaticCell::new();
 
 /// Opens the estimate store (when the self-calibration runs): the self-calibration starts from its
-/// newest record of this build, and a full store is compacted now, before the capture starts.
+/// newest record of this build, and the spare half is erased now, before the capture starts,
+/// unless it is blank (it holds nothing newer of this build; the boards' watchdog runs with its
+/// boot timeout, [`ERASE_WATCHDOG_TIMEOUT_US`], until the DSP task starts).
 #[inline(never)]
 fn open_estimate_store(
     flash: board::EstimateFlash,
@@ -127,10 +131,10 @@ fn open_estimate_store(
             scan.skipped
         );
     }
-    if store.is_full() {
-        defmt::info!("estimate store full: compacting");
-        if let Err(e) = store.compact(scan.latest.as_ref()) {
-            defmt::warn!("estimate store compaction failed: {}", e);
+    if !store.spare_is_blank() {
+        defmt::info!("estimate store: erasing the spare half");
+        if let Err(e) = store.erase_spare() {
+            defmt::warn!("estimate store: erase failed: {}", e);
         }
     }
     let loaded = scan.latest.map(|r| r.estimate);
@@ -216,12 +220,13 @@ async fn dsp_task(
     watchdog.unleash();
     audio.start();
     loop {
-        watchdog.pet();
         if audio.read(&mut block).await.is_err() {
             COUNTERS.count_overrun();
             defmt::warn!("capture overrun #{}: realigned", COUNTERS.overruns());
             continue;
         }
+        // Only progress pets the watchdog: a capture that fails block after block resets the board.
+        watchdog.pet();
         let mut calibration_due = None;
         let mut estimated = None;
         locator.process_block(&block, |e| {
@@ -252,7 +257,7 @@ async fn dsp_task(
         save_in_blocks = match save_in_blocks {
             Some(0) => {
                 if let Some((store, _)) = persistence.as_mut() {
-                    save_estimate(store, locator.capsule_estimate());
+                    save_estimate(store, locator.capsule_estimate(), &mut watchdog);
                 }
                 None
             }
@@ -281,10 +286,26 @@ fn save_due(policy: &mut SavePolicy, locator: &Locator<'_>, centre_sample: u64) 
     )
 }
 
-/// Appends `estimate` to the store (blocking flash programming, ≤ 3.6 ms). Not inlined: the record's
-/// buffer lives in this frame only while it runs, not in the DSP task's.
+/// Appends `estimate` to the store (blocking flash programming, ≤ 3.6 ms). When both halves of the
+/// store are full (≥ 2 × 910 saves in one uptime on the STM32 boards), the older half is erased
+/// first, with the watchdog stretched to [`ERASE_WATCHDOG_TIMEOUT_US`]: the CPU stalls for up to
+/// seconds and the capture overruns once. Not inlined: the record's buffer lives in this frame only
+/// while it runs, not in the DSP task's.
 #[inline(never)]
-fn save_estimate(store: &mut EstimateStore<board::EstimateFlash>, estimate: &CapsuleEstimate) {
+fn save_estimate(
+    store: &mut EstimateStore<board::EstimateFlash>,
+    estimate: &CapsuleEstimate,
+    watchdog: &mut Watchdog,
+) {
+    if store.needs_erase() {
+        defmt::info!("estimate store: both halves full, erasing the older");
+        watchdog.stretch(ERASE_WATCHDOG_TIMEOUT_US);
+        let erased = store.erase_spare();
+        watchdog.unleash();
+        if let Err(e) = erased {
+            defmt::warn!("estimate store: erase failed: {}", e);
+        }
+    }
     match store.save(estimate) {
         Ok(sequence) => defmt::info!("estimate saved as record {}", sequence),
         Err(e) => defmt::warn!("estimate not saved: {}", e),

@@ -33,7 +33,6 @@ use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::i2s::{self, I2S};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
-use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use embassy_time::{with_timeout, Duration, Timer};
 use static_cell::ConstStaticCell;
@@ -43,6 +42,7 @@ pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 
 #[path = "stm32_drivers.rs"]
 mod stm32_drivers;
+use cma_firmware::board_api::ERASE_WATCHDOG_TIMEOUT_US;
 pub use stm32_drivers::{FrameTx, Watchdog};
 
 /// UART baud rate of the frame stream.
@@ -54,8 +54,10 @@ pub const BLOCK_FRAMES: usize = cma_firmware::i2s_capture::BLOCK_FRAMES;
 pub const RING_FRAMES: usize = cma_firmware::i2s_capture::RING_FRAMES;
 /// Halfwords of each DMA ring buffer.
 const RING_WORDS: usize = RING_FRAMES * WORDS_PER_STEREO_FRAME;
-/// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
-/// resets the chip.
+/// Watchdog timeout while the application runs, µs. The DSP task pets it after every block
+/// delivered, so a stalled capture, a capture that fails block after block, or a hung task resets
+/// the chip. From reset until then (start-up, the estimate store's erase at boot) the watchdog
+/// runs with [`ERASE_WATCHDOG_TIMEOUT_US`].
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 
 /// SYSCLK, Hz (the clock plan below).
@@ -333,7 +335,7 @@ pub struct Board {
     pub audio: AudioIn,
     /// The frame-stream UART.
     pub uart: FrameTx,
-    /// The watchdog (not yet started).
+    /// The watchdog (running since the start of [`init`], with the boot timeout).
     pub watchdog: Watchdog,
     /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
     pub estimate_flash: Option<EstimateFlash>,
@@ -341,14 +343,15 @@ pub struct Board {
 
 /// The flash driver of the estimate store (offsets from the start of flash).
 pub type EstimateFlash = Flash<'static, Blocking>;
-/// Offset of the estimate store in flash: sector 7 (0x0806_0000), which `memory.x` keeps out of
-/// the image.
-pub const ESTIMATE_STORE_OFFSET: u32 = 0x6_0000;
-/// Bytes of the estimate store: the whole 128 KB sector (910 records).
-pub const ESTIMATE_STORE_LEN: u32 = 0x2_0000;
+/// Offset of the estimate store in flash: sectors 6 and 7 (0x0804_0000), which `memory.x` keeps
+/// out of the image.
+pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
+/// Bytes of the estimate store: two 128 KB sectors, one half each (910 records a half).
+pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
 
-/// Configures clocks and peripherals.
+/// Starts the watchdog, then configures clocks and peripherals.
 pub fn init() -> Board {
+    stm32_drivers::start_watchdog(ERASE_WATCHDOG_TIMEOUT_US);
     let p = embassy_stm32::init(clock_config());
 
     let mut cfg_a = i2s::Config::default();
@@ -388,7 +391,7 @@ pub fn init() -> Board {
     // Note(unwrap): 115200 baud from a 100 MHz APB2 is always reachable.
     let uart = UartTx::new(p.USART1, p.PA9, p.DMA2_CH7, Irqs, uart_cfg).unwrap();
 
-    let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
+    let watchdog = Watchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
     check_i2s_clocks();
 

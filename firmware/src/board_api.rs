@@ -4,7 +4,8 @@
 //! * a [`SampleSource`]: blocks of sample frames in the core's channel order (omni, cardioid 0°,
 //!   120°, 240°; full scale ±1), or an [`Overrun`] when samples were lost;
 //! * a [`FrameWriter`]: the byte stream of frame and calibration lines (a UART);
-//! * a [`Watchdog`] that resets the board when the DSP task no longer pets it;
+//! * a [`Watchdog`] that resets the board when the DSP task no longer pets it (it is petted only
+//!   after a block was delivered, so a capture that fails block after block resets the board);
 //! * optionally a flash for the estimate store (`board::EstimateFlash`, an
 //!   [`embedded_storage::nor_flash::NorFlash`], with `ESTIMATE_STORE_OFFSET` and
 //!   `ESTIMATE_STORE_LEN`; see [`crate::estimate_store`]);
@@ -54,10 +55,22 @@ pub trait FrameWriter {
     async fn write(&mut self, bytes: &[u8]) -> Result<(), WriteError>;
 }
 
+/// Timeout a board's watchdog is given around a flash erase of the estimate store, µs: a 128 KB
+/// sector of the STM32F4 takes up to 4 s (datasheets, sector erase time at ×8 parallelism, the
+/// slowest), and the independent watchdog's LSI clock may run fast (up to 47 kHz instead of 32:
+/// 8 s nominal is 5.4 s then). The STM32 boards also start their watchdog with it at boot.
+pub const ERASE_WATCHDOG_TIMEOUT_US: u32 = 8_000_000;
+
 /// A watchdog that resets the board unless it is petted in time.
 pub trait Watchdog {
-    /// Starts the watchdog (it cannot be switched off again).
+    /// Sets the run-time timeout (the board's `WATCHDOG_TIMEOUT_US`) and restarts it: from here
+    /// on the DSP task pets it after every block delivered. A board may have started it at boot,
+    /// with a longer timeout; it cannot be switched off.
     fn unleash(&mut self);
     /// Restarts its timeout.
     fn pet(&mut self);
+    /// Sets a longer timeout, `timeout_us`, and restarts it, for a blocking operation that
+    /// outlasts the run-time timeout (a flash erase); [`unleash`](Self::unleash) sets the run-time
+    /// one again.
+    fn stretch(&mut self, timeout_us: u32);
 }

@@ -39,7 +39,6 @@ use embassy_stm32::mode::Blocking;
 use embassy_stm32::sai::{self, Sai};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
-use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
@@ -49,6 +48,7 @@ pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 
 #[path = "stm32_drivers.rs"]
 mod stm32_drivers;
+use cma_firmware::board_api::ERASE_WATCHDOG_TIMEOUT_US;
 pub use stm32_drivers::{FrameTx, Watchdog};
 
 /// UART baud rate of the frame stream.
@@ -58,8 +58,10 @@ pub const BLOCK_FRAMES: usize = 32;
 /// Sample frames held by the DMA ring (8 ms at 16 kHz): the longest the DSP task may lag behind
 /// before an overrun.
 pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
-/// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
-/// resets the chip.
+/// Watchdog timeout while the application runs, µs. The DSP task pets it after every block
+/// delivered, so a stalled capture, a capture that fails block after block, or a hung task resets
+/// the chip. From reset until then (start-up, the estimate store's erase at boot) the watchdog
+/// runs with [`ERASE_WATCHDOG_TIMEOUT_US`].
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 
 const BLOCK_WORDS: usize = BLOCK_FRAMES * SLOTS;
@@ -282,7 +284,7 @@ pub struct Board {
     pub audio: AudioIn,
     /// The frame-stream UART.
     pub uart: FrameTx,
-    /// The watchdog (not yet started).
+    /// The watchdog (running since the start of [`init`], with the boot timeout).
     pub watchdog: Watchdog,
     /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
     pub estimate_flash: Option<EstimateFlash>,
@@ -290,11 +292,11 @@ pub struct Board {
 
 /// The flash driver of the estimate store (offsets from the start of flash).
 pub type EstimateFlash = Flash<'static, flash::Blocking>;
-/// Offset of the estimate store in flash: sector 7 (0x0806_0000), which `memory-f446.x` keeps out of
-/// the image.
-pub const ESTIMATE_STORE_OFFSET: u32 = 0x6_0000;
-/// Bytes of the estimate store: the whole 128 KB sector (910 records).
-pub const ESTIMATE_STORE_LEN: u32 = 0x2_0000;
+/// Offset of the estimate store in flash: sectors 6 and 7 (0x0804_0000), which `memory-f446.x`
+/// keeps out of the image.
+pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
+/// Bytes of the estimate store: two 128 KB sectors, one half each (910 records a half).
+pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
 
 /// The TLV320ADC5140's I2C address (ADDR0 = ADDR1 = GND).
 const ADC_ADDRESS: u8 = 0x4C;
@@ -381,8 +383,9 @@ fn check_adc_clocks(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
 /// Milliseconds the ADC's clock detection is given to report the bus's rate.
 const ADC_STATUS_WAIT_MS: u32 = 20;
 
-/// Configures clocks and peripherals.
+/// Starts the watchdog, then configures clocks and peripherals.
 pub fn init() -> Board {
+    stm32_drivers::start_watchdog(ERASE_WATCHDOG_TIMEOUT_US);
     let p = embassy_stm32::init(clock_config());
     if !start_sai_clock() {
         defmt::panic!("PLLSAI does not lock");
@@ -434,7 +437,7 @@ pub fn init() -> Board {
     // Note(unwrap): 115200 baud from a 45 MHz APB1 is always reachable.
     let uart = UartTx::new(p.USART2, p.PA2, p.DMA1_CH6, Irqs, uart_cfg).unwrap();
 
-    let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
+    let watchdog = Watchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
     Board {
         audio: AudioIn {

@@ -357,12 +357,13 @@ fn fault_word() -> u32 {
 
 /// Offset of the estimate store in [`EstimateFlash`].
 pub const ESTIMATE_STORE_OFFSET: u32 = 0;
-/// Bytes of the emulated estimate store (113 records; one erase unit).
+/// Bytes of the emulated estimate store: two halves of one 8 KB erase unit each (56 records a
+/// half; [`cma_firmware::estimate_store`]).
 pub const ESTIMATE_STORE_LEN: u32 = 16 * 1024;
 
 /// The estimate store's flash: a host file of [`ESTIMATE_STORE_LEN`] bytes named by the third
-/// semihosting argument, with NOR flash's rules (a write can only clear bits; an erase sets the
-/// whole file to `0xFF`). A new file starts erased.
+/// semihosting argument, with NOR flash's rules (a write can only clear bits; an erase sets whole
+/// 8 KB units to `0xFF`). A new file starts erased.
 pub struct EstimateFlash {
     fd: usize,
 }
@@ -409,14 +410,17 @@ fn check_range(offset: u32, len: usize) -> Result<(), HostIoError> {
 
 impl NorFlash for EstimateFlash {
     const WRITE_SIZE: usize = 16;
-    const ERASE_SIZE: usize = ESTIMATE_STORE_LEN as usize;
+    const ERASE_SIZE: usize = ESTIMATE_STORE_LEN as usize / 2;
 
     fn erase(&mut self, from: u32, to: u32) -> Result<(), HostIoError> {
-        if from != 0 || to != ESTIMATE_STORE_LEN {
+        let unit = Self::ERASE_SIZE as u32;
+        if !(from.is_multiple_of(unit) && to.is_multiple_of(unit) && from < to)
+            || to > ESTIMATE_STORE_LEN
+        {
             return Err(HostIoError);
         }
         let ones = [0xFFu8; 256];
-        for at in (0..ESTIMATE_STORE_LEN as usize).step_by(ones.len()) {
+        for at in (from as usize..to as usize).step_by(ones.len()) {
             if !host::write_at(self.fd, at, &ones) {
                 return Err(HostIoError);
             }
@@ -715,14 +719,23 @@ mod watchdog_registers {
 /// The CMSDK watchdog: resets the board [`WATCHDOG_TIMEOUT_US`] after the last pet.
 pub struct Watchdog;
 
+/// The CMSDK watchdog's LOAD for a reset `timeout_us` after the last pet (two expiries of LOAD
+/// cycles reset the system).
+fn watchdog_load(timeout_us: u32) -> u32 {
+    (u64::from(SYSCLK_HZ) * u64::from(timeout_us) / 2_000_000) as u32
+}
+
 impl board_api::Watchdog for Watchdog {
     fn unleash(&mut self) {
-        // Two expiries of LOAD cycles reset the system.
-        let load = (u64::from(SYSCLK_HZ) * u64::from(WATCHDOG_TIMEOUT_US) / 2_000_000) as u32;
-        watchdog_registers::start(load);
+        watchdog_registers::start(watchdog_load(WATCHDOG_TIMEOUT_US));
     }
 
     fn pet(&mut self) {
+        watchdog_registers::pet();
+    }
+
+    fn stretch(&mut self, timeout_us: u32) {
+        watchdog_registers::start(watchdog_load(timeout_us));
         watchdog_registers::pet();
     }
 }

@@ -172,6 +172,34 @@ impl SaiClockPlan {
     }
 }
 
+/// The STM32F4's LSI, the independent watchdog's clock, Hz (nominal; 17–47 kHz over parts and
+/// temperature, datasheets' LSI characteristics).
+pub const LSI_HZ: u32 = 32_000;
+
+/// IWDG_PR (prescaler field: ÷ 4 · 2^PR) and IWDG_RLR (12-bit reload) for a timeout of at least
+/// `timeout_us` at the nominal LSI: the smallest prescaler whose reload reaches it (RM0383, IWDG:
+/// timeout = 4 · 2^PR · (RL + 1) / LSI); `None` beyond ÷ 256 × 4096 (32.8 s).
+#[must_use]
+pub const fn iwdg_setting(timeout_us: u32) -> Option<(u8, u16)> {
+    let mut pr = 0;
+    while pr <= 6 {
+        let divider = 4u64 << pr;
+        let ticks = (timeout_us as u64 * LSI_HZ as u64).div_ceil(divider * 1_000_000);
+        if ticks <= 4096 {
+            let reload = if ticks == 0 { 0 } else { ticks - 1 };
+            return Some((pr as u8, reload as u16));
+        }
+        pr += 1;
+    }
+    None
+}
+
+/// The IWDG timeout, µs, of prescaler field `pr` and reload `rl` at the nominal LSI.
+#[must_use]
+pub const fn iwdg_timeout_us(pr: u8, rl: u16) -> u64 {
+    (4u64 << pr) * (rl as u64 + 1) * 1_000_000 / LSI_HZ as u64
+}
+
 /// Whether `rate_hz` is within ± 0.1 % of `nominal_hz`.
 #[must_use]
 pub fn within_tolerance(rate_hz: f64, nominal_hz: u32) -> bool {
@@ -226,6 +254,28 @@ mod tests {
         assert!(p.frame_bits.is_power_of_two() && !p.nodiv);
         // One frame of the plan is one TDM frame of 4 slots of 32 bits.
         assert_eq!(p.frame_bits, crate::tdm::FRAME_BITS);
+    }
+
+    #[test]
+    fn watchdog_settings_reach_the_timeouts() {
+        for timeout in [
+            250_000,
+            1_000_000,
+            crate::board_api::ERASE_WATCHDOG_TIMEOUT_US,
+        ] {
+            let (pr, rl) = iwdg_setting(timeout).unwrap();
+            let got = iwdg_timeout_us(pr, rl);
+            assert!(
+                got >= u64::from(timeout) && got < u64::from(timeout) + 8_000,
+                "{timeout}: {got}"
+            );
+            assert!(pr <= 6 && rl <= 0xFFF);
+        }
+        assert_eq!(iwdg_setting(250_000), Some((1, 999)));
+        // Even at the fastest LSI (47 kHz) the erase timeout outlasts a 4 s sector erase.
+        let (pr, rl) = iwdg_setting(crate::board_api::ERASE_WATCHDOG_TIMEOUT_US).unwrap();
+        assert!(iwdg_timeout_us(pr, rl) * u64::from(LSI_HZ) / 47_000 > 4_000_000);
+        assert_eq!(iwdg_setting(40_000_000), None);
     }
 
     #[test]

@@ -13,13 +13,13 @@
 //! (`DmaUnsynced`), and the stream stops for good at the end of the next lap. [`I2sCapture`]
 //! keeps every stream circular and restarts like this ([`I2sCapture::resync`]):
 //!
-//! 1. **switch-off** ([`stop_receivers`]), RM0383 §20.4.5/§20.4.6 "Reception sequence": the slave's
+//! 1. **switch-off** ([`stop_receivers`]), RM0383, SPI/I2S, I2S master mode and I2S slave mode, "Reception sequence": the slave's
 //!    I2SE is cleared right after its last RXNE of a frame; the master's (24-bit data in 32-bit
 //!    channels: "all other combinations") after the second-to-last RXNE and one bit clock, so it
 //!    receives the last halfword of the frame and stops. With the DMA serving RXNE, "RXNE" is seen
 //!    as the stream's NDTR counting down, and which halfword of the frame it was as SR.CHSIDE;
-//! 2. **streams back to the ring's start** ([`reset_streams`]), RM0383 §9.3.17 (stream
-//!    configuration): EN cleared and read back as 0; the data register and SR read (clears OVR:
+//! 2. **streams back to the ring's start** ([`reset_streams`]), RM0383, DMA, "Stream configuration
+//!    procedure" and DMA_SxNDTR: EN cleared and read back as 0; the data register and SR read (clears OVR:
 //!    "a read of SPI_DR then SPI_SR"; FRE: "cleared by a read of SPI_SR"); the stream's flags
 //!    cleared ("before setting EN … the event flags … must be cleared"); NDTR written with the
 //!    ring's length (writable only with EN = 0); the HAL's reader reset (`I2S::clear`: it takes
@@ -34,7 +34,7 @@
 //!    ([`crate::i2s_align::align`]).
 //!
 //! After each block both receivers are checked ([`receiver_health`]): SR.OVR (a halfword was lost
-//! in the peripheral), SR.FRE (the slave saw WS change at an unexpected moment, RM0383 §20.4.7:
+//! in the peripheral), SR.FRE (the slave saw WS change at an unexpected moment, RM0383, I2S error flags:
 //! it must be restarted) and SR.CHSIDE against the ring position
 //! ([`crate::i2s_align::channel_matches`]).
 
