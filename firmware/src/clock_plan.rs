@@ -271,7 +271,7 @@ mod tests {
             );
             assert!(pr <= 6 && rl <= 0xFFF);
         }
-        assert_eq!(iwdg_setting(250_000), Some((1, 999)));
+        assert_eq!(iwdg_setting(250_000), Some((0, 1999)));
         // Even at the fastest LSI (47 kHz) the erase timeout outlasts a 4 s sector erase.
         let (pr, rl) = iwdg_setting(crate::board_api::ERASE_WATCHDOG_TIMEOUT_US).unwrap();
         assert!(iwdg_timeout_us(pr, rl) * u64::from(LSI_HZ) / 47_000 > 4_000_000);
