@@ -2,17 +2,18 @@
 //! self-calibration snapshots → calibration lines), the same on every board.
 //!
 //! ```text
-//! board::AudioIn ─blocks─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─▶ board::FrameTx
+//! Board::Audio ─blocks─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─▶ Board::Link
 //!  (SampleSource)             │ overruns counted,                │ full: line dropped, counted
-//!                             │ watchdog petted per block        │ one `$CMA,…` line per estimate,
+//!                             │ watchdog petted per block read   │ one `$CMA,…` line per estimate,
 //!                             └ self-calibration snapshot at     └ one `$CAL,…` line per snapshot
 //!                               start and every 10 s
 //! ```
 //!
-//! It sees the board only through the traits of [`cma_firmware::board_api`] and the board
-//! module's `init`, `SAMPLE_RATE_HZ` and `BLOCK_FRAMES`; each binary mounts its board as
-//! `crate::board` (`src/board.rs`: STM32F411CE with two I2S ADCs; `src/board_f446.rs`:
-//! NUCLEO-F446RE with one 4-channel TDM ADC on SAI; `src/board_mps2.rs`: QEMU `mps2-an386`).
+//! It sees the board only through the board contract, [`cma_firmware::board_api::Board`], and the
+//! traits and constants of [`cma_firmware::board_api`]; each binary mounts its board module as
+//! `crate::board`, whose `Selected` type is the board (`src/boards/f411.rs`: STM32F411CE with two
+//! I2S ADCs; `src/boards/f446.rs`: NUCLEO-F446RE with one 4-channel TDM ADC on SAI;
+//! `src/boards/mps2.rs`: QEMU `mps2-an386`).
 //!
 //! The self-calibration starts from the newest estimate the board saved in its flash
 //! ([`cma_firmware::estimate_store`]), else from the one embedded at build time
@@ -21,13 +22,14 @@
 //! the `multi-talker` feature runs the multi-talker tracks and sends a `$TRK,…` line after every
 //! frame line.
 
-use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
+use crate::board;
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::capsule_estimate_record::key_of;
 use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
 use cma_firmware::board_api::{
-    FrameWriter, SampleSource, Watchdog as _, ERASE_WATCHDOG_TIMEOUT_US,
+    Board, FrameWriter, SampleSource, Watchdog as _, BLOCK_FRAMES, ERASE_WATCHDOG_TIMEOUT_US,
+    SAMPLE_RATE_HZ,
 };
 use cma_firmware::estimate_store::{EstimateStore, SavePolicy};
 use cma_firmware::stats::Counters;
@@ -36,6 +38,17 @@ use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
+
+/// The board this binary runs ([`Board`]).
+type ThisBoard = board::Selected;
+/// Its capsules.
+type AudioIn = <ThisBoard as Board>::Audio;
+/// Its frame link.
+type FrameTx = <ThisBoard as Board>::Link;
+/// Its watchdog.
+type Watchdog = <ThisBoard as Board>::Watchdog;
+/// Its estimate store's flash.
+type EstimateFlash = <ThisBoard as Board>::EstimateFlash;
 
 /// Lines waiting for the UART (≈ 64 ms of estimates at one per 16 ms; a calibration line, ≈ 15 ms
 /// on the wire every 10 s, fits in that slack; with the multi-talker tracks a track line, at most
@@ -74,7 +87,7 @@ static LOCATOR: StaticCell<Locator<'static>> = StaticCell::new();
 
 /// Starts the board and the tasks.
 pub async fn run(spawner: Spawner) {
-    let board = board::init();
+    let board = ThisBoard::init();
     defmt::info!(
         "cma firmware: {} Hz, {} sample frames per block",
         SAMPLE_RATE_HZ,
@@ -91,7 +104,7 @@ pub async fn run(spawner: Spawner) {
 }
 
 /// The estimate store and when to save to it.
-type Persistence = (EstimateStore<board::EstimateFlash>, SavePolicy);
+type Persistence = (EstimateStore<EstimateFlash>, SavePolicy);
 
 /// The persistence state, built in place by [`open_estimate_store`] (the tasks' futures hold a
 /// pointer to it, not a copy, which keeps it off the boot path's stack frames).
@@ -103,7 +116,7 @@ static PERSISTENCE: StaticCell<Persistence> = StaticCell::new();
 /// boot timeout, [`ERASE_WATCHDOG_TIMEOUT_US`], until the DSP task starts).
 #[inline(never)]
 fn open_estimate_store(
-    flash: board::EstimateFlash,
+    flash: EstimateFlash,
     locator: &mut Locator<'_>,
 ) -> Option<&'static mut Persistence> {
     if !locator.config().capsule_calibration.enabled {
@@ -112,8 +125,8 @@ fn open_estimate_store(
     let key = key_of(&stored_capsules::STORED);
     let (mut store, scan) = match EstimateStore::open(
         flash,
-        board::ESTIMATE_STORE_OFFSET,
-        board::ESTIMATE_STORE_LEN,
+        ThisBoard::ESTIMATE_STORE_OFFSET,
+        ThisBoard::ESTIMATE_STORE_LEN,
         key,
     ) {
         Ok(opened) => opened,
@@ -293,7 +306,7 @@ fn save_due(policy: &mut SavePolicy, locator: &Locator<'_>, centre_sample: u64) 
 /// while it runs, not in the DSP task's.
 #[inline(never)]
 fn save_estimate(
-    store: &mut EstimateStore<board::EstimateFlash>,
+    store: &mut EstimateStore<EstimateFlash>,
     estimate: &CapsuleEstimate,
     watchdog: &mut Watchdog,
 ) {

@@ -1,11 +1,11 @@
 //! The STM32 boards' audio clock plans as the register values the boards write, and the rates
 //! they give (host tested: the ADCs' sample rate must be 16 kHz ± 0.1 %).
 //!
-//! * STM32F411CE (`board.rs`): HSE → PLLI2S (RCC_PLLI2SCFGR: PLLI2SM, PLLI2SN, PLLI2SR) → I2S
+//! * STM32F411CE (`boards/f411.rs`): HSE → PLLI2S (RCC_PLLI2SCFGR: PLLI2SM, PLLI2SN, PLLI2SR) → I2S
 //!   kernel clock → SPI2_I2SPR (I2SDIV, ODD, MCKOE) → MCK, with 32-bit channels (64 bit clocks
 //!   per frame). RM0383, SPI/I2S chapter, "Clock generator": with MCKOE = 1,
 //!   Fs = I2SxCLK / (256 × (2 × I2SDIV + ODD)); MCK = 256 Fs.
-//! * STM32F446RE (`board_f446.rs`): HSE → PLLSAI (RCC_PLLSAICFGR: PLLSAIM, PLLSAIN, PLLSAIQ) →
+//! * STM32F446RE (`boards/f446.rs`): HSE → PLLSAI (RCC_PLLSAICFGR: PLLSAIM, PLLSAIN, PLLSAIQ) →
 //!   RCC_DCKCFGR.PLLSAIDIVQ → SAI1 kernel clock → SAI_xCR1.MCKDIV → MCLK; with NODIV = 0 the SAI
 //!   has MCLK = 256 FS and SCK = MCLK × (FRL + 1) / 256 (RM0390 §28.3.8, "SAI clock generator":
 //!   MCLK_x = sai_x_ker_ck / (MCKDIV × 2) for MCKDIV ≠ 0; Table 174 lists MCKDIV = 0110 for

@@ -20,8 +20,8 @@
 //!   append-only log of records) and when to save it;
 //! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
 //!
-//! The embassy application (`src/app.rs`) and the boards (`src/board.rs` for the STM32F411CE,
-//! `src/board_f446.rs` for the STM32F446RE, `src/board_mps2.rs` for QEMU `mps2-an386`) only build
+//! The embassy application (`src/app.rs`) and the boards (`src/boards/f411.rs` for the STM32F411CE,
+//! `src/boards/f446.rs` for the STM32F446RE, `src/boards/mps2.rs` for QEMU `mps2-an386`) only build
 //! for the target: `src/main.rs`, `src/bin/firmware-f446.rs` and `src/bin/firmware-mps2.rs` put
 //! one board under the application each.
 #![no_std]

@@ -1,4 +1,4 @@
-//! Drivers the STM32 boards share (`board.rs`, STM32F411CE; `board_f446.rs`, STM32F446RE): the
+//! Drivers the STM32 boards share (`boards/f411.rs`, STM32F411CE; `boards/f446.rs`, STM32F446RE): the
 //! frame-stream UART and the independent watchdog, over embassy-stm32.
 
 use cma_firmware::board_api::{self, FrameWriter, WriteError};

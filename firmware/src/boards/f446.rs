@@ -23,12 +23,12 @@
 //! DMA: SAI1_B on DMA2 stream 5 (channel 0), circular, one 32-bit word per slot; USART2_TX on
 //! DMA1 stream 6.
 //!
-//! It implements the board interface of [`cma_firmware::board_api`] like `board.rs` (STM32F411CE,
-//! two I2S ADCs) and `board_mps2.rs` (QEMU): [`init`] returns an [`AudioIn`] ([`SampleSource`]),
-//! a [`FrameTx`] ([`FrameWriter`](cma_firmware::board_api::FrameWriter)) and a [`Watchdog`]; [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
+//! [`F446`] is the board contract ([`cma_firmware::board_api::Board`]) like `boards/f411.rs`
+//! (STM32F411CE, two I2S ADCs) and `boards/mps2.rs` (QEMU): an [`AudioIn`] ([`SampleSource`]), a
+//! [`FrameTx`], a [`Watchdog`] and the estimate store's flash.
 
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{Overrun, SampleSource};
+use cma_firmware::board_api::{self, Overrun, Parts, SampleSource};
 use cma_firmware::clock_plan::F446_SAI;
 use cma_firmware::restart_mask::RestartMask;
 use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
@@ -42,10 +42,6 @@ use embassy_stm32::usart::{self, UartTx};
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
-/// Input sample rate, Hz, as the core sees it (the frame sync runs at 15 997 Hz: see
-/// [`start_sai_clock`]).
-pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
-
 #[path = "stm32_drivers.rs"]
 mod stm32_drivers;
 use cma_firmware::board_api::ERASE_WATCHDOG_TIMEOUT_US;
@@ -53,8 +49,8 @@ pub use stm32_drivers::{FrameTx, Watchdog};
 
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block (2 ms at 16 kHz).
-pub const BLOCK_FRAMES: usize = 32;
+/// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
+pub use cma_firmware::board_api::BLOCK_FRAMES;
 /// Sample frames held by the DMA ring (8 ms at 16 kHz): the longest the DSP task may lag behind
 /// before an overrun.
 pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
@@ -278,16 +274,24 @@ impl TdmReceiver for SaiRestart<'_> {
     }
 }
 
-/// The board's drivers, ready to be moved into tasks.
-pub struct Board {
-    /// The four capsules.
-    pub audio: AudioIn,
-    /// The frame-stream UART.
-    pub uart: FrameTx,
-    /// The watchdog (running since the start of [`init`], with the boot timeout).
-    pub watchdog: Watchdog,
-    /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
-    pub estimate_flash: Option<EstimateFlash>,
+/// The NUCLEO-F446RE board with one TLV320ADC5140 TDM ADC.
+pub struct F446;
+
+/// The board the binary runs.
+pub type Selected = F446;
+
+impl board_api::Board for F446 {
+    type Audio = AudioIn;
+    type Link = FrameTx;
+    type Watchdog = Watchdog;
+    type EstimateFlash = EstimateFlash;
+    const ESTIMATE_STORE_OFFSET: u32 = ESTIMATE_STORE_OFFSET;
+    const ESTIMATE_STORE_LEN: u32 = ESTIMATE_STORE_LEN;
+    const WATCHDOG_TIMEOUT_US: u32 = WATCHDOG_TIMEOUT_US;
+
+    fn init() -> Parts<Self> {
+        init()
+    }
 }
 
 /// The flash driver of the estimate store (offsets from the start of flash).
@@ -384,7 +388,7 @@ fn check_adc_clocks(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
 const ADC_STATUS_WAIT_MS: u32 = 20;
 
 /// Starts the watchdog, then configures clocks and peripherals.
-pub fn init() -> Board {
+fn init() -> Parts<F446> {
     stm32_drivers::start_watchdog(ERASE_WATCHDOG_TIMEOUT_US);
     let p = embassy_stm32::init(clock_config());
     if !start_sai_clock() {
@@ -439,7 +443,7 @@ pub fn init() -> Board {
 
     let watchdog = Watchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
-    Board {
+    Parts {
         audio: AudioIn {
             sai,
             words: [0; BLOCK_WORDS],

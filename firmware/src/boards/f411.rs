@@ -15,14 +15,13 @@
 //!
 //! DMA: SPI2_RX on DMA1 stream 3, SPI3_RX on DMA1 stream 0, USART1_TX on DMA2 stream 7.
 //!
-//! It implements the board interface of [`cma_firmware::board_api`] for the application
-//! (`src/app.rs`); another board (e.g. the emulated one in `src/board_mps2.rs`, or an STM32F446 with
-//! one 4-channel TDM ADC on SAI) provides the same items: [`init`] returning an [`AudioIn`]
-//! ([`SampleSource`]), a [`FrameTx`] ([`FrameWriter`](cma_firmware::board_api::FrameWriter)) and a [`Watchdog`], and the constants
-//! [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
+//! [`F411`] is the board contract ([`cma_firmware::board_api::Board`]) for the application
+//! (`src/app.rs`), like `boards/f446.rs` and `boards/mps2.rs`: an [`AudioIn`] ([`SampleSource`],
+//! the capture of [`cma_firmware::i2s_capture`]), a [`FrameTx`], a [`Watchdog`] and the estimate
+//! store's flash.
 
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{Overrun, SampleSource};
+use cma_firmware::board_api::{self, Overrun, Parts, SampleSource};
 use cma_firmware::clock_plan::{I2sClockPlan, F411_I2S};
 use cma_firmware::i2s_capture::{
     I2sCapture, I2sHardware, ReadError, Receiver, RingError, SpiStatus, BLOCK_WORDS,
@@ -47,8 +46,8 @@ pub use stm32_drivers::{FrameTx, Watchdog};
 
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block (2 ms at 16 kHz).
-pub const BLOCK_FRAMES: usize = cma_firmware::i2s_capture::BLOCK_FRAMES;
+/// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
+pub use cma_firmware::board_api::BLOCK_FRAMES;
 /// Sample frames held by each DMA ring buffer (8 ms at 16 kHz): the longest the DSP task may lag
 /// behind before an overrun.
 pub const RING_FRAMES: usize = cma_firmware::i2s_capture::RING_FRAMES;
@@ -329,16 +328,24 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     }
 }
 
-/// The board's drivers, ready to be moved into tasks.
-pub struct Board {
-    /// The four capsules.
-    pub audio: AudioIn,
-    /// The frame-stream UART.
-    pub uart: FrameTx,
-    /// The watchdog (running since the start of [`init`], with the boot timeout).
-    pub watchdog: Watchdog,
-    /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
-    pub estimate_flash: Option<EstimateFlash>,
+/// The STM32F411CE "Black Pill" board with two PCM1808 I2S ADCs.
+pub struct F411;
+
+/// The board the binary runs.
+pub type Selected = F411;
+
+impl board_api::Board for F411 {
+    type Audio = AudioIn;
+    type Link = FrameTx;
+    type Watchdog = Watchdog;
+    type EstimateFlash = EstimateFlash;
+    const ESTIMATE_STORE_OFFSET: u32 = ESTIMATE_STORE_OFFSET;
+    const ESTIMATE_STORE_LEN: u32 = ESTIMATE_STORE_LEN;
+    const WATCHDOG_TIMEOUT_US: u32 = WATCHDOG_TIMEOUT_US;
+
+    fn init() -> Parts<Self> {
+        init()
+    }
 }
 
 /// The flash driver of the estimate store (offsets from the start of flash).
@@ -350,7 +357,7 @@ pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
 pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
 
 /// Starts the watchdog, then configures clocks and peripherals.
-pub fn init() -> Board {
+fn init() -> Parts<F411> {
     stm32_drivers::start_watchdog(ERASE_WATCHDOG_TIMEOUT_US);
     let p = embassy_stm32::init(clock_config());
 
@@ -395,7 +402,7 @@ pub fn init() -> Board {
 
     check_i2s_clocks();
 
-    Board {
+    Parts {
         audio: AudioIn {
             receivers: Receivers {
                 a,

@@ -31,7 +31,7 @@
 
 use cma_core::capsule_estimate_record::{MAGIC, RECORD_LEN};
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
+use cma_firmware::board_api::{self, FrameWriter, Overrun, Parts, SampleSource, WriteError};
 use cma_firmware::emulated::{
     frames_after_us, us_for_frames, Fault, CAPTURE_STALL_US, DRAIN_US, FAULT_ADDR, FAULT_AT_FRAME,
     STATE_ADDR, UART_STALL_FROM_US, UART_STALL_US,
@@ -50,9 +50,9 @@ use static_cell::StaticCell;
 pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 /// UART baud rate of the frame stream (the transmitter is paced at it).
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block, as on the STM32F411CE board (`board.rs`).
-pub const BLOCK_FRAMES: usize = 32;
-/// Sample frames the emulated DMA ring holds, as on the STM32F411CE board (`board.rs`).
+/// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
+pub use cma_firmware::board_api::BLOCK_FRAMES;
+/// Sample frames the emulated DMA ring holds, as on the STM32F411CE board (`boards/f411.rs`).
 pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
 /// Watchdog timeout, µs, as on the STM32F411CE board.
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
@@ -740,21 +740,29 @@ impl board_api::Watchdog for Watchdog {
     }
 }
 
-/// The board's drivers, ready to be moved into tasks.
-pub struct Board {
-    /// The four capsules.
-    pub audio: AudioIn,
-    /// The frame-stream UART.
-    pub uart: FrameTx,
-    /// The watchdog (not yet started).
-    pub watchdog: Watchdog,
-    /// The estimate store's file, when the command line names one.
-    pub estimate_flash: Option<EstimateFlash>,
+/// The emulated board on QEMU `mps2-an386`.
+pub struct Mps2;
+
+/// The board the binary runs.
+pub type Selected = Mps2;
+
+impl board_api::Board for Mps2 {
+    type Audio = AudioIn;
+    type Link = FrameTx;
+    type Watchdog = Watchdog;
+    type EstimateFlash = EstimateFlash;
+    const ESTIMATE_STORE_OFFSET: u32 = ESTIMATE_STORE_OFFSET;
+    const ESTIMATE_STORE_LEN: u32 = ESTIMATE_STORE_LEN;
+    const WATCHDOG_TIMEOUT_US: u32 = WATCHDOG_TIMEOUT_US;
+
+    fn init() -> Parts<Self> {
+        init()
+    }
 }
 
 /// Starts the clock, the UART and the capture (opens and checks the WAV named on the semihosting
 /// command line); a missing or unsuitable WAV ends QEMU with status 1 and a report line.
-pub fn init() -> Board {
+fn init() -> Parts<Mps2> {
     stack_watermark::paint();
     // Note(unwrap-like): `init` runs once, so the core peripherals are still there.
     let Some(core) = cortex_m::Peripherals::take() else {
@@ -820,7 +828,7 @@ pub fn init() -> Board {
         file_frames
     );
 
-    Board {
+    Parts {
         audio: AudioIn {
             fd,
             format,
