@@ -1012,3 +1012,32 @@ fn the_hal_stop_start_restart_never_realigns() {
         assert!(!m.ch[0].circ);
     }
 }
+
+#[test]
+fn receivers_started_mid_frame_and_mid_word_are_brought_in_step() {
+    // The drivers started as the HAL starts them, the slave at every bit of the master's frame
+    // (mid-frame, mid-halfword; while WS is low it starts at once, out of step): the first read
+    // restarts both in step and every block is aligned.
+    for bit in 0..FRAME_BITS * 2 {
+        let mut m = model();
+        m.start_driver(Receiver::Master);
+        for _ in 0..bit {
+            m.tick();
+        }
+        m.start_driver(Receiver::Slave);
+        for _ in 0..3 * FRAME_BITS {
+            m.tick();
+        }
+        let mut c = capture();
+        let mut next = None;
+        let mut fault = None;
+        for _ in 0..4 {
+            assert_eq!(
+                read_checked(&mut c, &mut m, &mut next, &mut fault),
+                Ok(true),
+                "slave started {bit} bit clocks after the master"
+            );
+        }
+        assert!(m.violations.is_empty(), "{:?}", m.violations);
+    }
+}
