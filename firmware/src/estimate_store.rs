@@ -333,12 +333,12 @@ mod tests {
         const WRITE_SIZE: usize = 16;
         const ERASE_SIZE: usize = ERASE;
         fn erase(&mut self, from: u32, to: u32) -> Result<(), Cut> {
-            assert!(from as usize % ERASE == 0 && to as usize % ERASE == 0);
+            assert!((from as usize).is_multiple_of(ERASE) && (to as usize).is_multiple_of(ERASE));
             self.bytes[from as usize..to as usize].fill(0xFF);
             Ok(())
         }
         fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Cut> {
-            assert!(offset as usize % 16 == 0 && bytes.len() % 16 == 0);
+            assert!((offset as usize).is_multiple_of(16) && bytes.len().is_multiple_of(16));
             let n = bytes.len().min(self.bytes_left);
             self.bytes_left -= n;
             for (d, s) in self.bytes[offset as usize..].iter_mut().zip(&bytes[..n]) {

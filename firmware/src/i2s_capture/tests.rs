@@ -389,7 +389,7 @@ impl Model {
         self.ticks += 1;
         if self.clocks {
             self.bit += 1;
-            if self.bit % HW_BITS == 0 {
+            if self.bit.is_multiple_of(HW_BITS) {
                 self.halfword_done(self.bit / HW_BITS - 1);
             }
             if self.bit == FRAME_BITS {
@@ -481,7 +481,7 @@ impl Model {
                 // "I2SE has to be cleared immediately after receiving the last RXNE".
                 if self.clocks
                     && self.ch[1].running
-                    && !(h % 2 == 0 && elapsed < HW_BITS / 2 * ACCESSES_PER_BIT)
+                    && !(h.is_multiple_of(2) && elapsed < HW_BITS / 2 * ACCESSES_PER_BIT)
                 {
                     self.violations
                         .push("slave I2SE cleared outside its switch-off window");
