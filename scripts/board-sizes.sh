@@ -6,7 +6,7 @@
 # array (`host-sim scene`, 16 kHz) with an estimate store file, as the STM32 boards always have one:
 # a cold boot that learns and saves a record, then a warm boot that starts from it. Each run reports
 # its stack high-water mark (the stack is painted at boot and scanned at the end,
-# `board_mps2::stack_watermark`); the larger is added to each board's static RAM against the 48 KB
+# `boards/mps2.rs`, `stack_watermark`); the larger is added to each board's static RAM against the 48 KB
 # budget (the boards share the application and the core; their own start-up code differs).
 # Fails when a default image (`firmware`, `firmware-f446`) is over a budget: flash 128 KB, static RAM
 # + stack 48 KB.

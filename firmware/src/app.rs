@@ -2,17 +2,18 @@
 //! self-calibration snapshots → calibration lines), the same on every board.
 //!
 //! ```text
-//! board::AudioIn ─blocks─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─▶ board::FrameTx
+//! Board::Audio ─blocks─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─▶ Board::Link
 //!  (SampleSource)             │ overruns counted,                │ full: line dropped, counted
-//!                             │ watchdog petted per block        │ one `$CMA,…` line per estimate,
+//!                             │ watchdog petted per block read   │ one `$CMA,…` line per estimate,
 //!                             └ self-calibration snapshot at     └ one `$CAL,…` line per snapshot
 //!                               start and every 10 s
 //! ```
 //!
-//! It sees the board only through the traits of [`cma_firmware::board_api`] and the board
-//! module's `init`, `SAMPLE_RATE_HZ` and `BLOCK_FRAMES`; each binary mounts its board as
-//! `crate::board` (`src/board.rs`: STM32F411CE with two I2S ADCs; `src/board_f446.rs`:
-//! NUCLEO-F446RE with one 4-channel TDM ADC on SAI; `src/board_mps2.rs`: QEMU `mps2-an386`).
+//! It sees the board only through the board contract, [`cma_firmware::board_api::Board`], and the
+//! traits and constants of [`cma_firmware::board_api`]; each binary mounts its board module as
+//! `crate::board`, whose `Selected` type is the board (`src/boards/f411.rs`: STM32F411CE with two
+//! I2S ADCs; `src/boards/f446.rs`: NUCLEO-F446RE with one 4-channel TDM ADC on SAI;
+//! `src/boards/mps2.rs`: QEMU `mps2-an386`).
 //!
 //! The self-calibration starts from the newest estimate the board saved in its flash
 //! ([`cma_firmware::estimate_store`]), else from the one embedded at build time
@@ -21,12 +22,15 @@
 //! the `multi-talker` feature runs the multi-talker tracks and sends a `$TRK,…` line after every
 //! frame line.
 
-use crate::board::{self, AudioIn, FrameTx, Watchdog, BLOCK_FRAMES, SAMPLE_RATE_HZ};
+use crate::board;
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::capsule_estimate_record::key_of;
 use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
-use cma_firmware::board_api::{FrameWriter, SampleSource, Watchdog as _};
+use cma_firmware::board_api::{
+    Board, FrameWriter, SampleSource, Watchdog as _, BLOCK_FRAMES, ERASE_WATCHDOG_TIMEOUT_US,
+    SAMPLE_RATE_HZ,
+};
 use cma_firmware::estimate_store::{EstimateStore, SavePolicy};
 use cma_firmware::stats::Counters;
 use cma_firmware::stored_capsules;
@@ -34,6 +38,17 @@ use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
+
+/// The board this binary runs ([`Board`]).
+type ThisBoard = board::Selected;
+/// Its capsules.
+type AudioIn = <ThisBoard as Board>::Audio;
+/// Its frame link.
+type FrameTx = <ThisBoard as Board>::Link;
+/// Its watchdog.
+type Watchdog = <ThisBoard as Board>::Watchdog;
+/// Its estimate store's flash.
+type EstimateFlash = <ThisBoard as Board>::EstimateFlash;
 
 /// Lines waiting for the UART (≈ 64 ms of estimates at one per 16 ms; a calibration line, ≈ 15 ms
 /// on the wire every 10 s, fits in that slack; with the multi-talker tracks a track line, at most
@@ -72,7 +87,7 @@ static LOCATOR: StaticCell<Locator<'static>> = StaticCell::new();
 
 /// Starts the board and the tasks.
 pub async fn run(spawner: Spawner) {
-    let board = board::init();
+    let board = ThisBoard::init();
     defmt::info!(
         "cma firmware: {} Hz, {} sample frames per block",
         SAMPLE_RATE_HZ,
@@ -89,17 +104,19 @@ pub async fn run(spawner: Spawner) {
 }
 
 /// The estimate store and when to save to it.
-type Persistence = (EstimateStore<board::EstimateFlash>, SavePolicy);
+type Persistence = (EstimateStore<EstimateFlash>, SavePolicy);
 
 /// The persistence state, built in place by [`open_estimate_store`] (the tasks' futures hold a
 /// pointer to it, not a copy, which keeps it off the boot path's stack frames).
 static PERSISTENCE: StaticCell<Persistence> = StaticCell::new();
 
 /// Opens the estimate store (when the self-calibration runs): the self-calibration starts from its
-/// newest record of this build, and a full store is compacted now, before the capture starts.
+/// newest record of this build, and the spare half is erased now, before the capture starts,
+/// unless it is blank (it holds nothing newer of this build; the boards' watchdog runs with its
+/// boot timeout, [`ERASE_WATCHDOG_TIMEOUT_US`], until the DSP task starts).
 #[inline(never)]
 fn open_estimate_store(
-    flash: board::EstimateFlash,
+    flash: EstimateFlash,
     locator: &mut Locator<'_>,
 ) -> Option<&'static mut Persistence> {
     if !locator.config().capsule_calibration.enabled {
@@ -108,8 +125,8 @@ fn open_estimate_store(
     let key = key_of(&stored_capsules::STORED);
     let (mut store, scan) = match EstimateStore::open(
         flash,
-        board::ESTIMATE_STORE_OFFSET,
-        board::ESTIMATE_STORE_LEN,
+        ThisBoard::ESTIMATE_STORE_OFFSET,
+        ThisBoard::ESTIMATE_STORE_LEN,
         key,
     ) {
         Ok(opened) => opened,
@@ -127,10 +144,10 @@ fn open_estimate_store(
             scan.skipped
         );
     }
-    if store.is_full() {
-        defmt::info!("estimate store full: compacting");
-        if let Err(e) = store.compact(scan.latest.as_ref()) {
-            defmt::warn!("estimate store compaction failed: {}", e);
+    if !store.spare_is_blank() {
+        defmt::info!("estimate store: erasing the spare half");
+        if let Err(e) = store.erase_spare() {
+            defmt::warn!("estimate store: erase failed: {}", e);
         }
     }
     let loaded = scan.latest.map(|r| r.estimate);
@@ -216,12 +233,13 @@ async fn dsp_task(
     watchdog.unleash();
     audio.start();
     loop {
-        watchdog.pet();
         if audio.read(&mut block).await.is_err() {
             COUNTERS.count_overrun();
             defmt::warn!("capture overrun #{}: realigned", COUNTERS.overruns());
             continue;
         }
+        // Only progress pets the watchdog: a capture that fails block after block resets the board.
+        watchdog.pet();
         let mut calibration_due = None;
         let mut estimated = None;
         locator.process_block(&block, |e| {
@@ -252,7 +270,7 @@ async fn dsp_task(
         save_in_blocks = match save_in_blocks {
             Some(0) => {
                 if let Some((store, _)) = persistence.as_mut() {
-                    save_estimate(store, locator.capsule_estimate());
+                    save_estimate(store, locator.capsule_estimate(), &mut watchdog);
                 }
                 None
             }
@@ -281,10 +299,26 @@ fn save_due(policy: &mut SavePolicy, locator: &Locator<'_>, centre_sample: u64) 
     )
 }
 
-/// Appends `estimate` to the store (blocking flash programming, ≤ 3.6 ms). Not inlined: the record's
-/// buffer lives in this frame only while it runs, not in the DSP task's.
+/// Appends `estimate` to the store (blocking flash programming, ≤ 3.6 ms). When both halves of the
+/// store are full (≥ 2 × 910 saves in one uptime on the STM32 boards), the older half is erased
+/// first, with the watchdog stretched to [`ERASE_WATCHDOG_TIMEOUT_US`]: the CPU stalls for up to
+/// seconds and the capture overruns once. Not inlined: the record's buffer lives in this frame only
+/// while it runs, not in the DSP task's.
 #[inline(never)]
-fn save_estimate(store: &mut EstimateStore<board::EstimateFlash>, estimate: &CapsuleEstimate) {
+fn save_estimate(
+    store: &mut EstimateStore<EstimateFlash>,
+    estimate: &CapsuleEstimate,
+    watchdog: &mut Watchdog,
+) {
+    if store.needs_erase() {
+        defmt::info!("estimate store: both halves full, erasing the older");
+        watchdog.stretch(ERASE_WATCHDOG_TIMEOUT_US);
+        let erased = store.erase_spare();
+        watchdog.unleash();
+        if let Err(e) = erased {
+            defmt::warn!("estimate store: erase failed: {}", e);
+        }
+    }
     match store.save(estimate) {
         Ok(sequence) => defmt::info!("estimate saved as record {}", sequence),
         Err(e) => defmt::warn!("estimate not saved: {}", e),

@@ -1,4 +1,4 @@
-//! What the emulated board (QEMU `mps2-an386`, `src/board_mps2.rs`) and its tests agree on: the
+//! What the emulated board (QEMU `mps2-an386`, `src/boards/mps2.rs`) and its tests agree on: the
 //! fault word, the fault schedule and the report lines it prints on semihosting stdout.
 //!
 //! QEMU's generic loader writes the fault word before the firmware starts

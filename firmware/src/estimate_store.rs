@@ -1,22 +1,31 @@
 //! The self-calibration's estimate kept across power cycles: an append-only log of records
-//! ([`cma_core::capsule_estimate_record`], 144 bytes each) in one erase unit of flash.
+//! ([`cma_core::capsule_estimate_record`], 144 bytes each) in two halves of a flash region, each
+//! half whole erase units (two 128 KB sectors on the STM32 boards).
 //!
+//! * **Slots**: slot *k* is at *k* × 144 bytes from the region's start, so a reader that walks the
+//!   whole image in records (`host-sim --selfcal-in`) finds every record; the slot across the
+//!   boundary of the halves is not used.
 //! * **Boot** ([`EstimateStore::open`]): every slot is read; the newest valid record whose key is
 //!   this build's ([`key_of`](cma_core::capsule_estimate_record::key_of) the build-time starting
-//!   estimate, `CMA_SELFCAL`) is the estimate the self-calibration starts from. Torn records (a
-//!   power cut during a write) and records of other builds are skipped. When no slot is free,
-//!   [`EstimateStore::compact`] erases the region and writes the newest record back, still before
-//!   the capture starts (erasing stalls the CPU for up to seconds; nothing else erases).
+//!   estimate, `CMA_SELFCAL`) is the estimate the self-calibration starts from, and its half is the
+//!   *active* half, where records are appended. Torn records (a power cut during a write) and
+//!   records of other builds are skipped. The other half, the *spare*, holds nothing newer of this
+//!   build: unless it is blank, the application erases it ([`EstimateStore::erase_spare`]) before
+//!   the capture starts (erasing stalls the CPU for up to seconds).
 //! * **Running** ([`SavePolicy`]): at a calibration snapshot, an estimate that is confident enough
 //!   and differs from the last one saved is written ([`EstimateStore::save`]) at most once a
 //!   [`SAVE_PERIOD_S`]. The application writes it half-way between two analysis hops, when the
 //!   capture ring is empty: programming 36 flash words stalls the CPU for about 0.6 ms (3.6 ms at
-//!   the STM32F4's worst word time), and the ring holds 8 ms. A full log stops saving until the next
-//!   boot compacts it.
+//!   the STM32F4's worst word time), and the ring holds 8 ms. When the active half is full, the
+//!   record goes to the (blank) spare, which becomes the active half. Only when both halves fill
+//!   within one uptime (≥ 2 × 910 saves, 30 hours of an estimate that keeps changing on the STM32
+//!   boards) does a save need an erase first ([`EstimateStore::needs_erase`]); the application
+//!   then erases the old half at run time (the capture overruns once).
 //!
-//! A power cut at any moment loses at most the record being written: the previous one stays valid.
-//! A power cut during a compaction loses the stored estimate (the board starts from the build-time
-//! one and learns again).
+//! A power cut at any moment loses at most the record being written: the newest complete record
+//! is never in the half being erased (a half is erased only when the other holds this build's
+//! newest record, or when it holds none of this build's records), and the first record of a fresh
+//! half is written while the old half is still intact.
 
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::capsule_estimate_record::{self, crc32, Record, RecordError, RECORD_LEN};
@@ -45,110 +54,168 @@ pub struct Scan {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum SaveError<E> {
-    /// No free slot is left (the next boot compacts the log).
+    /// No free slot is left: the spare half must be erased first ([`EstimateStore::needs_erase`]).
     Full,
     /// The flash refused the write; the slot is skipped.
     Flash(E),
 }
 
-/// An append-only log of estimate records in `len` bytes of a flash from `base`.
+/// An append-only log of estimate records in `len` bytes of a flash from `base`, in two halves.
 pub struct EstimateStore<F: NorFlash> {
     flash: F,
     base: u32,
-    len: u32,
-    slots: u32,
+    /// Bytes per half.
+    half: u32,
     key: u32,
-    /// The first slot after every written one (`slots` when full).
+    /// The half records are appended to (0 or 1).
+    active: u32,
+    /// The first slot of the active half after every written one (its end when full).
     next_slot: u32,
+    /// Every slot of the other half is erased.
+    spare_blank: bool,
     /// Sequence number of the next record.
     sequence: u32,
 }
 
+/// What one half holds.
+#[derive(Debug, Clone, Copy, Default)]
+struct HalfScan {
+    /// The first slot after every written one.
+    next_slot: u32,
+    /// Every slot is erased.
+    blank: bool,
+    /// The newest sequence number of any valid record.
+    newest: Option<u32>,
+}
+
 impl<F: NorFlash> EstimateStore<F> {
-    /// Reads the log in `flash[base .. base + len]` (`base` and `len` whole erase units) for the
-    /// build whose starting estimate has key `key`.
+    /// The slots of half `h` (absolute slot numbers, counted from `base`).
+    fn half_slots(half: u32, h: u32) -> core::ops::Range<u32> {
+        let r = RECORD_LEN as u32;
+        (h * half).div_ceil(r)..((h + 1) * half) / r
+    }
+
+    /// Reads the log in `flash[base .. base + len]` (`len` two halves of whole erase units) for
+    /// the build whose starting estimate has key `key`.
     ///
     /// # Errors
     /// A flash read error.
     pub fn open(mut flash: F, base: u32, len: u32, key: u32) -> Result<(Self, Scan), F::Error> {
-        let slots = len / RECORD_LEN as u32;
+        let half = len / 2;
         let mut scan = Scan {
             latest: None,
             records: 0,
             skipped: 0,
         };
-        let mut next_slot = 0;
-        let mut newest_sequence: Option<u32> = None;
+        let mut latest_half = None;
+        let mut halves = [HalfScan::default(); 2];
         let mut bytes = [0u8; RECORD_LEN];
-        for slot in 0..slots {
-            flash.read(base + slot * RECORD_LEN as u32, &mut bytes)?;
-            match capsule_estimate_record::decode(&bytes) {
-                Err(RecordError::Erased) => continue,
-                Ok(r) => {
-                    newest_sequence =
-                        Some(newest_sequence.map_or(r.sequence, |s| s.max(r.sequence)));
-                    if r.key == key {
-                        scan.records += 1;
-                        if scan.latest.is_none_or(|l| r.sequence >= l.sequence) {
-                            scan.latest = Some(r);
+        for (h, hs) in (0..2).zip(halves.iter_mut()) {
+            let slots = Self::half_slots(half, h);
+            hs.next_slot = slots.start;
+            hs.blank = true;
+            for slot in slots {
+                flash.read(base + slot * RECORD_LEN as u32, &mut bytes)?;
+                match capsule_estimate_record::decode(&bytes) {
+                    Err(RecordError::Erased) => continue,
+                    Ok(r) => {
+                        hs.newest = Some(hs.newest.map_or(r.sequence, |s| s.max(r.sequence)));
+                        if r.key == key {
+                            scan.records += 1;
+                            if scan.latest.is_none_or(|l| r.sequence >= l.sequence) {
+                                scan.latest = Some(r);
+                                latest_half = Some(h);
+                            }
+                        } else {
+                            scan.skipped += 1;
                         }
-                    } else {
-                        scan.skipped += 1;
                     }
+                    Err(_) => scan.skipped += 1,
                 }
-                Err(_) => scan.skipped += 1,
+                hs.blank = false;
+                hs.next_slot = slot + 1;
             }
-            next_slot = slot + 1;
         }
+        // The half of this build's newest record; without one, the half of the newest record.
+        let active = latest_half.unwrap_or(match (halves[0].newest, halves[1].newest) {
+            (Some(a), Some(b)) if b > a => 1,
+            (None, Some(_)) => 1,
+            _ => 0,
+        });
+        let newest = halves.iter().filter_map(|h| h.newest).max();
         let store = Self {
             flash,
             base,
-            len,
-            slots,
+            half,
             key,
-            next_slot,
-            sequence: newest_sequence.map_or(0, |s| s.wrapping_add(1)),
+            active,
+            next_slot: halves[active as usize].next_slot,
+            spare_blank: halves[1 - active as usize].blank,
+            sequence: newest.map_or(0, |s| s.wrapping_add(1)),
         };
         Ok((store, scan))
     }
 
-    /// Whether no slot is free.
-    #[must_use]
-    pub fn is_full(&self) -> bool {
-        self.next_slot >= self.slots
+    /// Whether the active half has no free slot.
+    fn active_full(&self) -> bool {
+        self.next_slot >= Self::half_slots(self.half, self.active).end
     }
 
-    /// Records the log can still take.
+    /// Whether the spare half is blank (every slot erased).
+    #[must_use]
+    pub fn spare_is_blank(&self) -> bool {
+        self.spare_blank
+    }
+
+    /// Whether the next save needs [`Self::erase_spare`] first: the active half is full and the
+    /// spare is not blank.
+    #[must_use]
+    pub fn needs_erase(&self) -> bool {
+        self.active_full() && !self.spare_blank
+    }
+
+    /// Records the log can take before an erase.
     #[must_use]
     pub fn free_slots(&self) -> u32 {
-        self.slots.saturating_sub(self.next_slot)
+        let active = Self::half_slots(self.half, self.active)
+            .end
+            .saturating_sub(self.next_slot);
+        let spare = if self.spare_blank {
+            Self::half_slots(self.half, 1 - self.active).len() as u32
+        } else {
+            0
+        };
+        active.saturating_add(spare)
     }
 
-    /// Erases the region and writes `keep` (the newest record, [`Scan::latest`]) back (blocking: a
-    /// sector erase stalls the CPU for up to seconds; call it only before the capture starts).
+    /// Erases the spare half (blocking: a sector erase stalls the CPU for up to seconds). The
+    /// active half, which holds this build's newest record, is not touched.
     ///
     /// # Errors
-    /// A flash erase or write error (the log is then empty).
-    pub fn compact(&mut self, keep: Option<&Record>) -> Result<(), F::Error> {
-        self.next_slot = 0;
-        self.flash.erase(self.base, self.base + self.len)?;
-        if let Some(keep) = keep {
-            let bytes = capsule_estimate_record::encode(&keep.estimate, keep.sequence, self.key);
-            self.next_slot = 1;
-            self.flash.write(self.base, &bytes)?;
-        }
+    /// A flash erase error (the spare is then not blank).
+    pub fn erase_spare(&mut self) -> Result<(), F::Error> {
+        let from = self.base + (1 - self.active) * self.half;
+        self.spare_blank = false;
+        self.flash.erase(from, from + self.half)?;
+        self.spare_blank = true;
         Ok(())
     }
 
     /// Appends `estimate` as the newest record (blocking: [`RECORD_LEN`] bytes of flash
-    /// programming); returns its sequence number.
+    /// programming); returns its sequence number. When the active half is full, the record
+    /// opens the blank spare half, which becomes the active one.
     ///
     /// # Errors
-    /// [`SaveError::Full`] when no slot is free; [`SaveError::Flash`] when the write failed (the
-    /// slot is then skipped).
+    /// [`SaveError::Full`] when no slot is free without an erase ([`Self::needs_erase`]);
+    /// [`SaveError::Flash`] when the write failed (the slot is then skipped).
     pub fn save(&mut self, estimate: &CapsuleEstimate) -> Result<u32, SaveError<F::Error>> {
-        if self.is_full() {
-            return Err(SaveError::Full);
+        if self.active_full() {
+            if !self.spare_blank {
+                return Err(SaveError::Full);
+            }
+            self.active = 1 - self.active;
+            self.next_slot = Self::half_slots(self.half, self.active).start;
+            self.spare_blank = false;
         }
         let sequence = self.sequence;
         let bytes = capsule_estimate_record::encode(estimate, sequence, self.key);
@@ -266,12 +333,12 @@ mod tests {
         const WRITE_SIZE: usize = 16;
         const ERASE_SIZE: usize = ERASE;
         fn erase(&mut self, from: u32, to: u32) -> Result<(), Cut> {
-            assert!(from as usize % ERASE == 0 && to as usize % ERASE == 0);
+            assert!((from as usize).is_multiple_of(ERASE) && (to as usize).is_multiple_of(ERASE));
             self.bytes[from as usize..to as usize].fill(0xFF);
             Ok(())
         }
         fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Cut> {
-            assert!(offset as usize % 16 == 0 && bytes.len() % 16 == 0);
+            assert!((offset as usize).is_multiple_of(16) && bytes.len().is_multiple_of(16));
             let n = bytes.len().min(self.bytes_left);
             self.bytes_left -= n;
             for (d, s) in self.bytes[offset as usize..].iter_mut().zip(&bytes[..n]) {
@@ -287,13 +354,17 @@ mod tests {
 
     fn blank() -> RamNor {
         RamNor {
-            bytes: std::vec![0xFF; 2 * ERASE],
+            bytes: std::vec![0xFF; 4 * ERASE],
             bytes_left: usize::MAX,
         }
     }
 
     const BASE: u32 = ERASE as u32;
-    const LEN: u32 = ERASE as u32;
+    /// Two halves of one erase unit each.
+    const LEN: u32 = 2 * ERASE as u32;
+    /// Slots of the first half (1024 / 144) and of the second (from ⌈1024 / 144⌉ = 8 to
+    /// ⌊2048 / 144⌋ = 14): the slot across the boundary is not used.
+    const HALF_SLOTS: [u32; 2] = [7, 6];
     const KEY: u32 = 0x1234_5678;
 
     fn estimate(x: f32) -> CapsuleEstimate {
@@ -320,17 +391,19 @@ mod tests {
                 skipped: 0
             }
         );
-        assert_eq!(store.free_slots(), LEN / RECORD_LEN as u32);
+        assert_eq!(store.free_slots(), HALF_SLOTS[0] + HALF_SLOTS[1]);
+        assert!(store.spare_is_blank() && !store.needs_erase());
         assert_eq!(save(&mut store, &estimate(0.01)).unwrap(), 0);
         assert_eq!(save(&mut store, &estimate(0.02)).unwrap(), 1);
         let flash = store.release();
         // Nothing outside the region was touched.
         assert!(flash.bytes[..ERASE].iter().all(|&b| b == 0xFF));
+        assert!(flash.bytes[3 * ERASE..].iter().all(|&b| b == 0xFF));
         let (store, scan) = EstimateStore::open(flash, BASE, LEN, KEY).unwrap();
         assert_eq!(scan.records, 2);
         let latest = scan.latest.unwrap();
         assert_eq!((latest.sequence, latest.estimate), (1, estimate(0.02)));
-        assert_eq!(store.free_slots(), LEN / RECORD_LEN as u32 - 2);
+        assert_eq!(store.free_slots(), HALF_SLOTS[0] + HALF_SLOTS[1] - 2);
     }
 
     #[test]
@@ -363,24 +436,145 @@ mod tests {
         assert_eq!(save(&mut store, &estimate(0.02)).unwrap(), 1);
     }
 
+    /// The valid records of an image walked in records from the region's start, as
+    /// `host-sim --selfcal-in` reads a store image.
+    fn image_records(flash: &RamNor) -> std::vec::Vec<Record> {
+        flash.bytes[BASE as usize..(BASE + LEN) as usize]
+            .chunks_exact(RECORD_LEN)
+            .filter_map(|slot| capsule_estimate_record::decode(slot.try_into().ok()?).ok())
+            .collect()
+    }
+
     #[test]
-    fn a_full_log_refuses_saves_until_compacted() {
+    fn a_full_half_continues_in_the_other_and_saving_never_stops() {
         let (mut store, _) = EstimateStore::open(blank(), BASE, LEN, KEY).unwrap();
-        let slots = LEN / RECORD_LEN as u32;
-        for i in 0..slots {
-            save(&mut store, &estimate(0.001 * i as f32)).unwrap();
+        let mut sequence = 0;
+        // Five rounds of filling a half: the spare is blank after the first, then a save needs
+        // an erase each time the active half is full.
+        for round in 0..5 {
+            let h = round % 2;
+            for _ in 0..HALF_SLOTS[h] {
+                assert!(!store.needs_erase(), "round {round}");
+                let e = estimate(0.001 * sequence as f32);
+                assert_eq!(store.save(&e).unwrap(), sequence);
+                sequence += 1;
+                // Every record is found where a whole-image reader looks, and the newest one is
+                // what the next boot starts from.
+                let (reopened, scan) =
+                    EstimateStore::open(store.release(), BASE, LEN, KEY).unwrap();
+                store = reopened;
+                assert_eq!(scan.latest.unwrap().estimate, e);
+                let newest = image_records(&store.flash)
+                    .into_iter()
+                    .max_by_key(|r| r.sequence);
+                assert_eq!(newest.map(|r| r.estimate), Some(e));
+            }
+            if round == 0 {
+                assert!(store.spare_is_blank());
+            } else {
+                assert!(store.needs_erase());
+                assert!(matches!(store.save(&estimate(0.5)), Err(SaveError::Full)));
+                store.erase_spare().unwrap();
+            }
         }
-        assert!(store.is_full());
-        assert!(matches!(store.save(&estimate(0.05)), Err(SaveError::Full)));
-        let (mut store, scan) = EstimateStore::open(store.release(), BASE, LEN, KEY).unwrap();
-        assert!(store.is_full());
-        assert_eq!(scan.latest.unwrap().sequence, slots - 1);
-        store.compact(scan.latest.as_ref()).unwrap();
-        assert_eq!(store.free_slots(), slots - 1);
-        assert_eq!(save(&mut store, &estimate(0.05)).unwrap(), slots);
-        let (_, scan) = EstimateStore::open(store.release(), BASE, LEN, KEY).unwrap();
-        assert_eq!(scan.records, 2);
-        assert_eq!(scan.latest.unwrap().estimate, estimate(0.05));
+        assert_eq!(
+            image_records(&store.flash).iter().map(|r| r.sequence).max(),
+            Some(sequence - 1)
+        );
+    }
+
+    /// A flash whose operations stop after `ops_left` erases or 16-byte writes (a power cut): a
+    /// cut erase leaves the first `ERASE / 3` bytes erased and the rest as they were.
+    struct CutFlash {
+        nor: RamNor,
+        ops_left: usize,
+    }
+
+    impl ErrorType for CutFlash {
+        type Error = Cut;
+    }
+
+    impl ReadNorFlash for CutFlash {
+        const READ_SIZE: usize = 1;
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Cut> {
+            self.nor.read(offset, bytes)
+        }
+        fn capacity(&self) -> usize {
+            self.nor.capacity()
+        }
+    }
+
+    impl NorFlash for CutFlash {
+        const WRITE_SIZE: usize = 16;
+        const ERASE_SIZE: usize = ERASE;
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), Cut> {
+            if self.ops_left == 0 {
+                self.nor.bytes[from as usize..from as usize + ERASE / 3].fill(0xFF);
+                return Err(Cut);
+            }
+            self.ops_left -= 1;
+            self.nor.erase(from, to)
+        }
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Cut> {
+            for (i, cell) in bytes.chunks_exact(16).enumerate() {
+                if self.ops_left == 0 {
+                    return Err(Cut);
+                }
+                self.ops_left -= 1;
+                self.nor.write(offset + 16 * i as u32, cell)?;
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_power_cut_at_any_step_keeps_the_last_complete_record() {
+        // Boots that erase the spare when it is not blank, and saves that erase it when needed:
+        // the application's use. A cut after `cut` flash operations; then the next boot must
+        // start from the newest record whose save completed.
+        let saves = 3 * (HALF_SLOTS[0] + HALF_SLOTS[1]) as usize;
+        for cut in 0..saves * (RECORD_LEN / 16 + 1) {
+            let mut flash = CutFlash {
+                nor: blank(),
+                ops_left: cut,
+            };
+            let mut last_complete = None;
+            'boots: for boot in 0..saves {
+                let (mut store, scan) = EstimateStore::open(flash, BASE, LEN, KEY).unwrap();
+                assert_eq!(
+                    scan.latest.map(|r| r.estimate),
+                    last_complete,
+                    "cut after {cut} operations, boot {boot}"
+                );
+                if !store.spare_is_blank() && store.erase_spare().is_err() {
+                    flash = store.release();
+                    break 'boots;
+                }
+                // Three saves a boot.
+                for i in 0..3 {
+                    let e = estimate(0.001 * (boot * 3 + i) as f32);
+                    if store.needs_erase() && store.erase_spare().is_err() {
+                        flash = store.release();
+                        break 'boots;
+                    }
+                    match store.save(&e) {
+                        Ok(_) => last_complete = Some(e),
+                        Err(_) => {
+                            flash = store.release();
+                            break 'boots;
+                        }
+                    }
+                }
+                flash = store.release();
+            }
+            flash.ops_left = usize::MAX;
+            let (_, scan) = EstimateStore::open(flash, BASE, LEN, KEY).unwrap();
+            assert_eq!(
+                scan.latest.map(|r| r.estimate),
+                last_complete,
+                "cut after {cut} operations"
+            );
+        }
     }
 
     #[test]

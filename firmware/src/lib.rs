@@ -2,8 +2,12 @@
 //!
 //! * [`board_api`] — the board interface the application is written against (sample blocks with
 //!   overrun reports, a frame writer, a watchdog);
+//! * [`clock_plan`] — the STM32 boards' audio clock plans (the register values they write) and
+//!   the sample rates they give;
 //! * [`i2s_align`] — frame and channel alignment of the two I2S receive streams after a (re)start,
 //!   and the channel-side check that finds a stream that slipped;
+//! * [`restart_mask`] — the ADCs' restart transient (zeros, then a fade-in) masked as flagged
+//!   (NaN) sample frames;
 //! * [`sample`] — 24-bit I2S codes (left-aligned in 32-bit slots, read as 16-bit halves) to `f32`
 //!   sample frames in the core's channel order;
 //! * [`tdm`] — 4-slot TDM words (one 4-channel ADC on the STM32F446 board's SAI) to `f32`
@@ -16,8 +20,8 @@
 //!   append-only log of records) and when to save it;
 //! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
 //!
-//! The embassy application (`src/app.rs`) and the boards (`src/board.rs` for the STM32F411CE,
-//! `src/board_f446.rs` for the STM32F446RE, `src/board_mps2.rs` for QEMU `mps2-an386`) only build
+//! The embassy application (`src/app.rs`) and the boards (`src/boards/f411.rs` for the STM32F411CE,
+//! `src/boards/f446.rs` for the STM32F446RE, `src/boards/mps2.rs` for QEMU `mps2-an386`) only build
 //! for the target: `src/main.rs`, `src/bin/firmware-f446.rs` and `src/bin/firmware-mps2.rs` put
 //! one board under the application each.
 #![no_std]
@@ -27,10 +31,13 @@
 extern crate std;
 
 pub mod board_api;
+pub mod clock_plan;
 pub mod embedded_config;
 pub mod emulated;
 pub mod estimate_store;
 pub mod i2s_align;
+pub mod i2s_capture;
+pub mod restart_mask;
 pub mod sample;
 pub mod stats;
 pub mod stored_capsules;

@@ -1,7 +1,7 @@
 //! Firmware of the coincident-microphone-array board (STM32F411CE): four capsules over two I2S ADCs,
 //! the `cma-core` similarity localizer in real time, one `$CMA` frame line per estimate over UART.
 //!
-//! The application (`app.rs`) on the STM32F411CE board (`board.rs`); `bin/firmware-mps2.rs` puts
+//! The application (`app.rs`) on the STM32F411CE board (`boards/f411.rs`); `bin/firmware-mps2.rs` puts
 //! the same application on the emulated board. Build with
 //! `cargo build -p firmware --release --target thumbv7em-none-eabihf`; on the host this binary is an
 //! empty stub so that workspace-wide commands keep working.
@@ -10,6 +10,7 @@
 #[cfg(target_os = "none")]
 mod app;
 #[cfg(target_os = "none")]
+#[path = "boards/f411.rs"]
 mod board;
 #[cfg(target_os = "none")]
 mod runtime;

@@ -66,6 +66,56 @@ pub fn deinterleave(words: &[u32], out: &mut [[f32; CHANNELS]]) -> usize {
     n
 }
 
+/// The TLV320ADC5140's ASI_STS register (page 0, address 0x15; TI data sheet SBAS890, register
+/// map): bits 7–4 FS_RATE_STS, the sample rate its clock detection found (1: 14.7 or 16 kHz, 3:
+/// 29.4 or 32 kHz, 15: none/invalid), bits 3–0 FS_RATIO_STS, the BCLK-to-FSYNC ratio (6: 128,
+/// 15: invalid); 0xFF after reset.
+pub const ADC_ASI_STS: u8 = 0x15;
+
+/// The sample rate class and BCLK ratio the TLV320ADC5140 detects on this board's bus: 16 kHz
+/// ([`ADC_FS_RATE_16K`]) and 128 bit clocks per frame ([`ADC_FS_RATIO_128`]).
+pub const ADC_EXPECTED_ASI_STS: u8 = (ADC_FS_RATE_16K << 4) | ADC_FS_RATIO_128;
+/// ASI_STS.FS_RATE_STS for 14.7 kHz or 16 kHz.
+pub const ADC_FS_RATE_16K: u8 = 1;
+/// ASI_STS.FS_RATIO_STS for 128 bit clocks per frame.
+pub const ADC_FS_RATIO_128: u8 = 6;
+
+/// The ASI_STS fields: `(FS_RATE_STS, FS_RATIO_STS)`.
+#[must_use]
+pub const fn asi_status_fields(asi_sts: u8) -> (u8, u8) {
+    (asi_sts >> 4, asi_sts & 0x0F)
+}
+
+/// Sample frames per second the ASI_STS FS_RATE_STS code stands for (the 48 kHz family; the
+/// 44.1 kHz family shares the codes); `None` for a reserved or invalid code.
+#[must_use]
+pub const fn asi_rate_hz(fs_rate_sts: u8) -> Option<u32> {
+    match fs_rate_sts {
+        0 => Some(8_000),
+        1 => Some(16_000),
+        2 => Some(24_000),
+        3 => Some(32_000),
+        4 => Some(48_000),
+        5 => Some(96_000),
+        6 => Some(192_000),
+        7 => Some(384_000),
+        8 => Some(768_000),
+        _ => None,
+    }
+}
+
+/// The BCLK-to-FSYNC ratio the ASI_STS FS_RATIO_STS code stands for; `None` for a reserved or
+/// invalid code.
+#[must_use]
+pub const fn asi_ratio(fs_ratio_sts: u8) -> Option<u32> {
+    const RATIOS: [u32; 13] = [16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 1024, 2048];
+    if (fs_ratio_sts as usize) < RATIOS.len() {
+        Some(RATIOS[fs_ratio_sts as usize])
+    } else {
+        None
+    }
+}
+
 /// What restarting a TDM receiver at a frame sync needs from the receiver and its DMA ring
 /// ([`restart_at_frame_sync`]). The DMA keeps running in circular mode throughout; the ring's
 /// reader is the HAL's, which after a lapped ring continues at the DMA position of that moment.
@@ -148,6 +198,19 @@ mod tests {
             code_from_slot(word(c, 0x3C)),
             crate::sample::code_from_halfwords(halves.0, halves.1)
         );
+    }
+
+    #[test]
+    fn adc_status_decodes_the_rate_and_ratio_of_this_bus() {
+        let (rate, ratio) = asi_status_fields(ADC_EXPECTED_ASI_STS);
+        assert_eq!(asi_rate_hz(rate), Some(crate::board_api::SAMPLE_RATE_HZ));
+        assert_eq!(asi_ratio(ratio), Some(FRAME_BITS));
+        assert_eq!(ADC_EXPECTED_ASI_STS, 0x16);
+        // After reset, or without clocks: both invalid.
+        assert_eq!(asi_status_fields(0xFF), (15, 15));
+        assert_eq!((asi_rate_hz(15), asi_ratio(15)), (None, None));
+        // The code for a 32 kHz bus (the SAI with the MCKDIV field at 3).
+        assert_eq!(asi_rate_hz(asi_status_fields(0x36).0), Some(32_000));
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! The array-board firmware on the STM32F446RE board: the same application (`../app.rs`) on a
-//! NUCLEO-F446RE with one 4-channel TDM ADC on SAI1 (`../board_f446.rs`), frame lines on the
+//! NUCLEO-F446RE with one 4-channel TDM ADC on SAI1 (`../boards/f446.rs`), frame lines on the
 //! ST-LINK virtual COM port (USART2).
 //!
 //! ```text
@@ -14,7 +14,7 @@
 #[path = "../app.rs"]
 mod app;
 #[cfg(target_os = "none")]
-#[path = "../board_f446.rs"]
+#[path = "../boards/f446.rs"]
 mod board;
 #[cfg(target_os = "none")]
 #[path = "../runtime.rs"]

@@ -1,5 +1,5 @@
 //! The array-board firmware on the emulated board: the same application (`../app.rs`) on QEMU
-//! `mps2-an386` (`../board_mps2.rs`): samples from a WAV file over semihosting, frame lines on the
+//! `mps2-an386` (`../boards/mps2.rs`): samples from a WAV file over semihosting, frame lines on the
 //! CMSDK UART.
 //!
 //! ```text
@@ -17,7 +17,7 @@
 #[path = "../app.rs"]
 mod app;
 #[cfg(target_os = "none")]
-#[path = "../board_mps2.rs"]
+#[path = "../boards/mps2.rs"]
 mod board;
 #[cfg(target_os = "none")]
 #[path = "../runtime.rs"]

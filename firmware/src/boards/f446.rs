@@ -23,12 +23,14 @@
 //! DMA: SAI1_B on DMA2 stream 5 (channel 0), circular, one 32-bit word per slot; USART2_TX on
 //! DMA1 stream 6.
 //!
-//! It implements the board interface of [`cma_firmware::board_api`] like `board.rs` (STM32F411CE,
-//! two I2S ADCs) and `board_mps2.rs` (QEMU): [`init`] returns an [`AudioIn`] ([`SampleSource`]),
-//! a [`FrameTx`] ([`FrameWriter`](cma_firmware::board_api::FrameWriter)) and a [`Watchdog`]; [`SAMPLE_RATE_HZ`] and [`BLOCK_FRAMES`].
+//! [`F446`] is the board contract ([`cma_firmware::board_api::Board`]) like `boards/f411.rs`
+//! (STM32F411CE, two I2S ADCs) and `boards/mps2.rs` (QEMU): an [`AudioIn`] ([`SampleSource`]), a
+//! [`FrameTx`], a [`Watchdog`] and the estimate store's flash.
 
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{Overrun, SampleSource};
+use cma_firmware::board_api::{self, Overrun, Parts, SampleSource};
+use cma_firmware::clock_plan::F446_SAI;
+use cma_firmware::restart_mask::RestartMask;
 use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
 use embassy_stm32::flash::{self, Flash};
@@ -37,27 +39,25 @@ use embassy_stm32::mode::Blocking;
 use embassy_stm32::sai::{self, Sai};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usart::{self, UartTx};
-use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
-/// Input sample rate, Hz, as the core sees it (the frame sync runs at 15 997 Hz: see
-/// [`start_sai_clock`]).
-pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
-
 #[path = "stm32_drivers.rs"]
 mod stm32_drivers;
+use cma_firmware::board_api::ERASE_WATCHDOG_TIMEOUT_US;
 pub use stm32_drivers::{FrameTx, Watchdog};
 
 /// UART baud rate of the frame stream.
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block (2 ms at 16 kHz).
-pub const BLOCK_FRAMES: usize = 32;
+/// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
+pub use cma_firmware::board_api::BLOCK_FRAMES;
 /// Sample frames held by the DMA ring (8 ms at 16 kHz): the longest the DSP task may lag behind
 /// before an overrun.
 pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
-/// Watchdog timeout, µs. The DSP task pets it once per block, so a stalled capture or a hung task
-/// resets the chip.
+/// Watchdog timeout while the application runs, µs. The DSP task pets it after every block
+/// delivered, so a stalled capture, a capture that fails block after block, or a hung task resets
+/// the chip. From reset until then (start-up, the estimate store's erase at boot) the watchdog
+/// runs with [`ERASE_WATCHDOG_TIMEOUT_US`].
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 
 const BLOCK_WORDS: usize = BLOCK_FRAMES * SLOTS;
@@ -105,8 +105,9 @@ const POLLS: u32 = 200_000;
 /// PLLSAICFGR without PLLSAIM on the F446 (its input divider, left at 0, an invalid value) and has
 /// no SAI1 clock selection for this chip.
 ///
-/// HSE 8 MHz / M 4 = 2 MHz → × N 172 = 344 MHz → / Q 7 / PLLSAIDIVQ 1 = 49.1429 MHz SAI clock; the
-/// SAI's MCKDIV 6 (÷ 12) gives a 4.0952 MHz master clock = 256 fs, so fs = 15 997 Hz (−0.019 %;
+/// The values are [`F446_SAI`]'s (host tested to give 16 kHz ± 0.1 %): HSE 8 MHz / M 4 = 2 MHz →
+/// × N 172 = 344 MHz → / Q 7 / PLLSAIDIVQ 1 = 49.1429 MHz SAI clock; the SAI's MCKDIV field 6
+/// (÷ 12, RM0390 §28.3.8) gives a 4.0952 MHz master clock = 256 fs, so fs = 15 997 Hz (−0.019 %;
 /// the core runs at its nominal 16 kHz, the azimuth does not depend on it) and BCLK = 128 fs =
 /// 2.048 MHz for 4 slots of 32 bits (a BCLK-to-FSYNC ratio the ADC's automatic clock detection
 /// supports at 16 kHz).
@@ -117,13 +118,14 @@ fn start_sai_clock() -> bool {
         return false;
     }
     pac::RCC.pllsaicfgr().write(|w| {
-        w.set_pllm(Pllm::DIV4);
-        w.set_plln(Plln::MUL172);
+        w.set_pllm(Pllm::from_bits(F446_SAI.pllsai_m));
+        w.set_plln(Plln::from_bits(F446_SAI.pllsai_n));
         w.set_pllp(Pllp::DIV8); // 43 MHz on the 48 MHz clock path, unused
-        w.set_pllq(Pllq::DIV7);
+        w.set_pllq(Pllq::from_bits(F446_SAI.pllsai_q));
     });
     pac::RCC.dckcfgr().modify(|w| {
-        w.set_pllsaidivq(Pllsaidivq::DIV1);
+        // The field holds the division − 1 (RM0390 RCC_DCKCFGR.PLLSAIDIVQ).
+        w.set_pllsaidivq(Pllsaidivq::from_bits(F446_SAI.pllsai_div_q - 1));
         w.set_sai1src(Sai1src::PLLSAI);
     });
     pac::RCC.cr().modify(|w| w.set_pllsaion(true));
@@ -139,6 +141,8 @@ fn sai_block() -> pac::sai::Ch {
 pub struct AudioIn {
     sai: Sai<'static, peripherals::SAI1, u32>,
     words: [u32; BLOCK_WORDS],
+    /// The ADC's transient after a restart (a clock-error mute, then its ramp; [`RestartMask`]).
+    transient: RestartMask<1>,
 }
 
 /// Restarts of the receiver tried before giving up (then the watchdog resets the chip).
@@ -154,7 +158,9 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     }
 
     /// Waits for the next [`BLOCK_FRAMES`] sample frames and writes them, full scale ±1, in the core's
-    /// channel order ([`tdm::deinterleave`]).
+    /// channel order ([`tdm::deinterleave`]). After the start and every restart, the ADC's
+    /// transient comes as NaN frames, which the localizer flags and does not use
+    /// ([`RestartMask`]).
     ///
     /// Returns [`Overrun`] (`out` not written) when samples were lost:
     /// * the DMA lapped the ring (the HAL's overrun): the HAL continues at the DMA position of that
@@ -173,6 +179,7 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
             return Err(Overrun);
         }
         tdm::deinterleave(&self.words, out);
+        self.transient.apply(out);
         Ok(())
     }
 }
@@ -192,6 +199,7 @@ impl AudioIn {
     /// Restarts the receiver at a frame sync until that succeeds ([`RESYNC_ATTEMPTS`]; after that
     /// the firmware panics and the watchdog resets the chip).
     fn resync(&mut self) {
+        self.transient.restarted();
         for attempt in 1..=RESYNC_ATTEMPTS {
             if self.restart_at_frame_sync() {
                 return;
@@ -266,25 +274,33 @@ impl TdmReceiver for SaiRestart<'_> {
     }
 }
 
-/// The board's drivers, ready to be moved into tasks.
-pub struct Board {
-    /// The four capsules.
-    pub audio: AudioIn,
-    /// The frame-stream UART.
-    pub uart: FrameTx,
-    /// The watchdog (not yet started).
-    pub watchdog: Watchdog,
-    /// The flash that holds the estimate store ([`ESTIMATE_STORE_OFFSET`]).
-    pub estimate_flash: Option<EstimateFlash>,
+/// The NUCLEO-F446RE board with one TLV320ADC5140 TDM ADC.
+pub struct F446;
+
+/// The board the binary runs.
+pub type Selected = F446;
+
+impl board_api::Board for F446 {
+    type Audio = AudioIn;
+    type Link = FrameTx;
+    type Watchdog = Watchdog;
+    type EstimateFlash = EstimateFlash;
+    const ESTIMATE_STORE_OFFSET: u32 = ESTIMATE_STORE_OFFSET;
+    const ESTIMATE_STORE_LEN: u32 = ESTIMATE_STORE_LEN;
+    const WATCHDOG_TIMEOUT_US: u32 = WATCHDOG_TIMEOUT_US;
+
+    fn init() -> Parts<Self> {
+        init()
+    }
 }
 
 /// The flash driver of the estimate store (offsets from the start of flash).
 pub type EstimateFlash = Flash<'static, flash::Blocking>;
-/// Offset of the estimate store in flash: sector 7 (0x0806_0000), which `memory-f446.x` keeps out of
-/// the image.
-pub const ESTIMATE_STORE_OFFSET: u32 = 0x6_0000;
-/// Bytes of the estimate store: the whole 128 KB sector (910 records).
-pub const ESTIMATE_STORE_LEN: u32 = 0x2_0000;
+/// Offset of the estimate store in flash: sectors 6 and 7 (0x0804_0000), which `memory-f446.x`
+/// keeps out of the image.
+pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
+/// Bytes of the estimate store: two 128 KB sectors, one half each (910 records a half).
+pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
 
 /// The TLV320ADC5140's I2C address (ADDR0 = ADDR1 = GND).
 const ADC_ADDRESS: u8 = 0x4C;
@@ -325,23 +341,55 @@ fn setup_adc(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
             embassy_time::block_for(embassy_time::Duration::from_millis(2));
         }
     }
-    // DEV_STS1 reports the device mode; ASI_STS the sample rate and BCLK ratio it detected.
-    let mut status = [0u8; 2];
-    let ok = i2c
-        .blocking_write_read(ADC_ADDRESS, &[0x77], &mut status[..1])
-        .and_then(|()| i2c.blocking_write_read(ADC_ADDRESS, &[0x15], &mut status[1..]));
-    match ok {
-        Ok(()) => defmt::info!(
-            "TLV320ADC5140: DEV_STS1 {=u8:#x}, ASI_STS {=u8:#x}",
-            status[0],
-            status[1]
-        ),
-        Err(e) => defmt::error!("TLV320ADC5140: status read: {}", e),
+    check_adc_clocks(i2c);
+}
+
+/// Reads back DEV_STS1 (the device mode) and ASI_STS, the sample rate and BCLK ratio the ADC's
+/// clock detection found ([`tdm::ADC_ASI_STS`]), and logs an error unless they are 16 kHz and 128
+/// ([`tdm::ADC_EXPECTED_ASI_STS`]). The detection needs a few frames after power-up: the status
+/// is polled for up to [`ADC_STATUS_WAIT_MS`].
+fn check_adc_clocks(i2c: &mut I2c<'static, Blocking, i2c::Master>) {
+    let mut asi_sts = 0xFF;
+    for _ in 0..ADC_STATUS_WAIT_MS {
+        embassy_time::block_for(embassy_time::Duration::from_millis(1));
+        let mut status = [0u8; 1];
+        if let Err(e) = i2c.blocking_write_read(ADC_ADDRESS, &[tdm::ADC_ASI_STS], &mut status) {
+            defmt::error!("TLV320ADC5140: ASI_STS read: {}", e);
+            return;
+        }
+        asi_sts = status[0];
+        if asi_sts == tdm::ADC_EXPECTED_ASI_STS {
+            break;
+        }
+    }
+    let mut dev_sts1 = [0u8; 1];
+    if let Err(e) = i2c.blocking_write_read(ADC_ADDRESS, &[0x77], &mut dev_sts1) {
+        defmt::error!("TLV320ADC5140: DEV_STS1 read: {}", e);
+    }
+    let (rate, ratio) = tdm::asi_status_fields(asi_sts);
+    if asi_sts == tdm::ADC_EXPECTED_ASI_STS {
+        defmt::info!(
+            "TLV320ADC5140: DEV_STS1 {=u8:#x}, ASI_STS {=u8:#x} (16 kHz, BCLK 128 fs)",
+            dev_sts1[0],
+            asi_sts
+        );
+    } else {
+        defmt::error!(
+            "TLV320ADC5140: ASI_STS {=u8:#x}: rate {} Hz, BCLK ratio {} (want 16000 Hz, 128); DEV_STS1 {=u8:#x}",
+            asi_sts,
+            tdm::asi_rate_hz(rate),
+            tdm::asi_ratio(ratio),
+            dev_sts1[0]
+        );
     }
 }
 
-/// Configures clocks and peripherals.
-pub fn init() -> Board {
+/// Milliseconds the ADC's clock detection is given to report the bus's rate.
+const ADC_STATUS_WAIT_MS: u32 = 20;
+
+/// Starts the watchdog, then configures clocks and peripherals.
+fn init() -> Parts<F446> {
+    stm32_drivers::start_watchdog(ERASE_WATCHDOG_TIMEOUT_US);
     let p = embassy_stm32::init(clock_config());
     if !start_sai_clock() {
         defmt::panic!("PLLSAI does not lock");
@@ -362,10 +410,12 @@ pub fn init() -> Board {
     cfg.frame_sync_polarity = sai::FrameSyncPolarity::ActiveHigh;
     cfg.frame_sync_active_level_length = sai::word::U7(1);
     cfg.frame_sync_definition = sai::FrameSyncDefinition::StartOfFrame;
-    cfg.frame_length = tdm::FRAME_BITS as u16;
+    cfg.frame_length = F446_SAI.frame_bits as u16;
     cfg.clock_strobe = sai::ClockStrobe::Rising;
-    cfg.master_clock_divider = sai::MasterClockDivider::DIV6;
-    cfg.nodiv = false;
+    // `MasterClockDivider` is stm32-metapac's `Mckdiv`, named by the division: the field value 6
+    // is `DIV12` (÷ 12), not `DIV6` (field value 3, which ran the bus at 32 kHz).
+    cfg.master_clock_divider = sai::MasterClockDivider::from_bits(F446_SAI.mckdiv);
+    cfg.nodiv = F446_SAI.nodiv;
     cfg.fifo_threshold = sai::FifoThreshold::Quarter;
     let (_block_a, block_b) = sai::split_subblocks(p.SAI1);
     // The driver enables the block at once (the bit clock runs from here on, which the ADC's PLL
@@ -391,12 +441,13 @@ pub fn init() -> Board {
     // Note(unwrap): 115200 baud from a 45 MHz APB1 is always reachable.
     let uart = UartTx::new(p.USART2, p.PA2, p.DMA1_CH6, Irqs, uart_cfg).unwrap();
 
-    let watchdog = Watchdog(IndependentWatchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US));
+    let watchdog = Watchdog::new(p.IWDG, WATCHDOG_TIMEOUT_US);
 
-    Board {
+    Parts {
         audio: AudioIn {
             sai,
             words: [0; BLOCK_WORDS],
+            transient: RestartMask::new(),
         },
         uart: FrameTx::new(uart, "USART2"),
         watchdog,

@@ -31,7 +31,7 @@
 
 use cma_core::capsule_estimate_record::{MAGIC, RECORD_LEN};
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, FrameWriter, Overrun, SampleSource, WriteError};
+use cma_firmware::board_api::{self, FrameWriter, Overrun, Parts, SampleSource, WriteError};
 use cma_firmware::emulated::{
     frames_after_us, us_for_frames, Fault, CAPTURE_STALL_US, DRAIN_US, FAULT_ADDR, FAULT_AT_FRAME,
     STATE_ADDR, UART_STALL_FROM_US, UART_STALL_US,
@@ -50,9 +50,9 @@ use static_cell::StaticCell;
 pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
 /// UART baud rate of the frame stream (the transmitter is paced at it).
 pub const UART_BAUD: u32 = 115_200;
-/// Sample frames per DSP block, as on the STM32F411CE board (`board.rs`).
-pub const BLOCK_FRAMES: usize = 32;
-/// Sample frames the emulated DMA ring holds, as on the STM32F411CE board (`board.rs`).
+/// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
+pub use cma_firmware::board_api::BLOCK_FRAMES;
+/// Sample frames the emulated DMA ring holds, as on the STM32F411CE board (`boards/f411.rs`).
 pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
 /// Watchdog timeout, µs, as on the STM32F411CE board.
 pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
@@ -357,12 +357,13 @@ fn fault_word() -> u32 {
 
 /// Offset of the estimate store in [`EstimateFlash`].
 pub const ESTIMATE_STORE_OFFSET: u32 = 0;
-/// Bytes of the emulated estimate store (113 records; one erase unit).
+/// Bytes of the emulated estimate store: two halves of one 8 KB erase unit each (56 records a
+/// half; [`cma_firmware::estimate_store`]).
 pub const ESTIMATE_STORE_LEN: u32 = 16 * 1024;
 
 /// The estimate store's flash: a host file of [`ESTIMATE_STORE_LEN`] bytes named by the third
-/// semihosting argument, with NOR flash's rules (a write can only clear bits; an erase sets the
-/// whole file to `0xFF`). A new file starts erased.
+/// semihosting argument, with NOR flash's rules (a write can only clear bits; an erase sets whole
+/// 8 KB units to `0xFF`). A new file starts erased.
 pub struct EstimateFlash {
     fd: usize,
 }
@@ -409,14 +410,17 @@ fn check_range(offset: u32, len: usize) -> Result<(), HostIoError> {
 
 impl NorFlash for EstimateFlash {
     const WRITE_SIZE: usize = 16;
-    const ERASE_SIZE: usize = ESTIMATE_STORE_LEN as usize;
+    const ERASE_SIZE: usize = ESTIMATE_STORE_LEN as usize / 2;
 
     fn erase(&mut self, from: u32, to: u32) -> Result<(), HostIoError> {
-        if from != 0 || to != ESTIMATE_STORE_LEN {
+        let unit = Self::ERASE_SIZE as u32;
+        if !(from.is_multiple_of(unit) && to.is_multiple_of(unit) && from < to)
+            || to > ESTIMATE_STORE_LEN
+        {
             return Err(HostIoError);
         }
         let ones = [0xFFu8; 256];
-        for at in (0..ESTIMATE_STORE_LEN as usize).step_by(ones.len()) {
+        for at in (from as usize..to as usize).step_by(ones.len()) {
             if !host::write_at(self.fd, at, &ones) {
                 return Err(HostIoError);
             }
@@ -715,33 +719,50 @@ mod watchdog_registers {
 /// The CMSDK watchdog: resets the board [`WATCHDOG_TIMEOUT_US`] after the last pet.
 pub struct Watchdog;
 
+/// The CMSDK watchdog's LOAD for a reset `timeout_us` after the last pet (two expiries of LOAD
+/// cycles reset the system).
+fn watchdog_load(timeout_us: u32) -> u32 {
+    (u64::from(SYSCLK_HZ) * u64::from(timeout_us) / 2_000_000) as u32
+}
+
 impl board_api::Watchdog for Watchdog {
     fn unleash(&mut self) {
-        // Two expiries of LOAD cycles reset the system.
-        let load = (u64::from(SYSCLK_HZ) * u64::from(WATCHDOG_TIMEOUT_US) / 2_000_000) as u32;
-        watchdog_registers::start(load);
+        watchdog_registers::start(watchdog_load(WATCHDOG_TIMEOUT_US));
     }
 
     fn pet(&mut self) {
         watchdog_registers::pet();
     }
+
+    fn stretch(&mut self, timeout_us: u32) {
+        watchdog_registers::start(watchdog_load(timeout_us));
+        watchdog_registers::pet();
+    }
 }
 
-/// The board's drivers, ready to be moved into tasks.
-pub struct Board {
-    /// The four capsules.
-    pub audio: AudioIn,
-    /// The frame-stream UART.
-    pub uart: FrameTx,
-    /// The watchdog (not yet started).
-    pub watchdog: Watchdog,
-    /// The estimate store's file, when the command line names one.
-    pub estimate_flash: Option<EstimateFlash>,
+/// The emulated board on QEMU `mps2-an386`.
+pub struct Mps2;
+
+/// The board the binary runs.
+pub type Selected = Mps2;
+
+impl board_api::Board for Mps2 {
+    type Audio = AudioIn;
+    type Link = FrameTx;
+    type Watchdog = Watchdog;
+    type EstimateFlash = EstimateFlash;
+    const ESTIMATE_STORE_OFFSET: u32 = ESTIMATE_STORE_OFFSET;
+    const ESTIMATE_STORE_LEN: u32 = ESTIMATE_STORE_LEN;
+    const WATCHDOG_TIMEOUT_US: u32 = WATCHDOG_TIMEOUT_US;
+
+    fn init() -> Parts<Self> {
+        init()
+    }
 }
 
 /// Starts the clock, the UART and the capture (opens and checks the WAV named on the semihosting
 /// command line); a missing or unsuitable WAV ends QEMU with status 1 and a report line.
-pub fn init() -> Board {
+fn init() -> Parts<Mps2> {
     stack_watermark::paint();
     // Note(unwrap-like): `init` runs once, so the core peripherals are still there.
     let Some(core) = cortex_m::Peripherals::take() else {
@@ -807,7 +828,7 @@ pub fn init() -> Board {
         file_frames
     );
 
-    Board {
+    Parts {
         audio: AudioIn {
             fd,
             format,
