@@ -284,23 +284,37 @@ pub fn render(
         if off <= on {
             continue;
         }
-        let mut s = src
-            .kind
-            .signal(rate, total, seed.wrapping_add(1_000_003 * (k as u64 + 1)));
-        // Switched on and off with 50 ms raised-cosine ramps.
+        // A source on from the start was running before the recording began: it is rendered from
+        // a second earlier, so its reverberation is there from the first sample.
+        let pre = if on == 0 { rate as usize } else { 0 };
+        let mut s = src.kind.signal(
+            rate,
+            total + pre,
+            seed.wrapping_add(1_000_003 * (k as u64 + 1)),
+        );
+        // Switched on and off with 50 ms raised-cosine ramps (none at the file's ends).
         let ramp = (0.05 * fs) as usize;
-        for (i, v) in s.iter_mut().enumerate() {
-            let g = if i < on || i >= off {
+        for (j, v) in s.iter_mut().enumerate() {
+            let i = j.saturating_sub(pre);
+            let g = if j >= pre && (i < on || i >= off) {
                 0.0
             } else {
-                let a = ((i - on) as f64 / ramp as f64).min(1.0);
-                let b = ((off - i) as f64 / ramp as f64).min(1.0);
+                let a = if on == 0 {
+                    1.0
+                } else {
+                    ((i - on) as f64 / ramp as f64).min(1.0)
+                };
+                let b = if off == total {
+                    1.0
+                } else {
+                    ((off - i) as f64 / ramp as f64).min(1.0)
+                };
                 let e = a.min(b);
                 0.5 - 0.5 * (PI * e).cos()
             };
             *v *= g;
         }
-        let [w, x, y] = match room {
+        let rendered = match room {
             SourceRoom::Free => {
                 let (a, e) = (src.azimuth_deg.to_radians(), src.elevation_deg.to_radians());
                 let (cx, cy) = (e.cos() * a.cos(), e.cos() * a.sin());
@@ -321,12 +335,10 @@ pub fn render(
                 [convolve(&s, &w), convolve(&s, &x), convolve(&s, &y)]
             }
         };
+        let [w, x, y] = rendered.map(|v| v.into_iter().skip(pre).take(total).collect::<Vec<f64>>());
         // The level holds between the ramps.
-        let (a, b) = if off - on > 4 * ramp {
-            (on + ramp, off - ramp)
-        } else {
-            (on, off)
-        };
+        let a = if on == 0 { 0 } else { (on + ramp).min(off) };
+        let b = if off == total { total } else { off.saturating_sub(ramp).max(a + 1) };
         let p = w[a..b].iter().map(|v| v * v).sum::<f64>() / (b - a) as f64;
         let g = (reference_power * 10f64.powf(src.level_db / 10.0) / p.max(1e-30)).sqrt();
         for (o, v) in out.iter_mut().zip([w, x, y]) {
