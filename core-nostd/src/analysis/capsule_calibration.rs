@@ -1178,10 +1178,32 @@ mod tests {
         // Fewer background frames than FIRST_ESTIMATE_FRAMES: however much they suggest, the
         // capsules stay ideal (a one-second recording must not be "calibrated").
         let mut st = fresh();
-        feed(&mut st, A, B, 0.0, 0.0, None, false, FIRST_ESTIMATE_FRAMES as usize - 1, 3, 0.0);
+        feed(
+            &mut st,
+            A,
+            B,
+            0.0,
+            0.0,
+            None,
+            false,
+            FIRST_ESTIMATE_FRAMES as usize - 1,
+            3,
+            0.0,
+        );
         assert_eq!(st.estimate().bands, CapsuleEstimate::IDEAL.bands);
         // The next check after FIRST_ESTIMATE_FRAMES accepts what they taught.
-        feed(&mut st, A, B, 0.0, 0.0, None, false, CHECK_FRAMES as usize, 4, 0.0);
+        feed(
+            &mut st,
+            A,
+            B,
+            0.0,
+            0.0,
+            None,
+            false,
+            CHECK_FRAMES as usize,
+            4,
+            0.0,
+        );
         assert_ne!(st.estimate().bands, CapsuleEstimate::IDEAL.bands);
     }
 

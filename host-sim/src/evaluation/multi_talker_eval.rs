@@ -226,6 +226,11 @@ pub struct Counts {
     pub purity_all: usize,
     /// Recording length, s.
     pub seconds: f64,
+    /// Scored frames.
+    pub frames: usize,
+    /// Frames with an active track on a directional noise source (within the tolerance of one that
+    /// is switched on, and matched to no talker).
+    pub noise_frames: usize,
 }
 
 impl Counts {
@@ -239,6 +244,8 @@ impl Counts {
         self.purity_main += o.purity_main;
         self.purity_all += o.purity_all;
         self.seconds += o.seconds;
+        self.frames += o.frames;
+        self.noise_frames += o.noise_frames;
     }
 }
 
@@ -257,6 +264,8 @@ pub struct Metrics {
     pub id_purity: f64,
     /// Purity of the worst ID with at least one second of matches (1 when there is none).
     pub worst_id_purity: f64,
+    /// Share of frames with an active track on a noise source (0 without noise sources).
+    pub noise_track_share: f64,
 }
 
 /// One scene's result.
@@ -322,6 +331,11 @@ fn metrics(c: &Counts, worst_id_purity: f64) -> Metrics {
         },
         id_purity: ratio(c.purity_main, c.purity_all),
         worst_id_purity,
+        noise_track_share: if c.frames > 0 {
+            c.noise_frames as f64 / c.frames as f64
+        } else {
+            0.0
+        },
     }
 }
 
@@ -371,9 +385,58 @@ pub fn best_matching(tracks: &[f64], talkers: &[f64]) -> Vec<(usize, usize, f64)
     best.2
 }
 
-/// Scores a scene's tracks against its talkers. Returns the counts and the worst ID purity.
+/// A directional noise source of a scene (`NAME.noise.csv`, written by `host-sim scene
+/// --noise-source`): its azimuth and when it is switched on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseTruth {
+    /// Azimuth, degrees.
+    pub azimuth_deg: f64,
+    /// Switch-on time, s.
+    pub on_s: f64,
+    /// Switch-off time, s (infinite: to the end).
+    pub off_s: f64,
+}
+
+impl NoiseTruth {
+    /// The noise sources next to `wav` (none when it has no `NAME.noise.csv`).
+    pub fn read_beside(wav: &Path) -> Result<Vec<Self>> {
+        let path = wav.with_extension("noise.csv");
+        if !path.exists() {
+            return Ok(Vec::new());
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| SimError::io(&path, e))?;
+        let bad = |line: usize| {
+            SimError::Usage(format!(
+                "{}: line {line}: not a noise source row",
+                path.display()
+            ))
+        };
+        text.lines()
+            .enumerate()
+            .skip(1)
+            .filter(|(_, l)| !l.trim().is_empty())
+            .map(|(i, l)| {
+                let f: Vec<&str> = l.split(',').collect();
+                let num = |j: usize| f.get(j).and_then(|v| v.trim().parse::<f64>().ok());
+                Ok(Self {
+                    azimuth_deg: num(1).ok_or_else(|| bad(i + 1))?,
+                    on_s: num(5).ok_or_else(|| bad(i + 1))?,
+                    off_s: num(6).unwrap_or(f64::INFINITY),
+                })
+            })
+            .collect()
+    }
+}
+
+/// Scores a scene's tracks against its talkers (and counts the frames with a track on one of
+/// `noise` sources). Returns the counts and the worst ID purity.
 #[must_use]
-pub fn score(frames: &[TrackFrame], truths: &[TalkerTruth], seconds: f64) -> (Counts, f64) {
+pub fn score(
+    frames: &[TrackFrame],
+    truths: &[TalkerTruth],
+    noise: &[NoiseTruth],
+    seconds: f64,
+) -> (Counts, f64) {
     let mut c = Counts {
         seconds,
         ..Counts::default()
@@ -413,6 +476,20 @@ pub fn score(frames: &[TrackFrame], truths: &[TalkerTruth], seconds: f64) -> (Co
         }
         c.talker_frames += cand.iter().filter(|x| !x.1).count();
         c.track_frames += active.len() - optional_matched;
+        c.frames += 1;
+        let on_noise = active.iter().enumerate().any(|(ti, t)| {
+            !matches.iter().any(|m| m.0 == ti)
+                && noise.iter().any(|n| {
+                    f.t_s >= n.on_s
+                        && f.t_s < n.off_s
+                        && crate::ground_truth::wrap180(f64::from(t.azimuth_deg) - n.azimuth_deg)
+                            .abs()
+                            <= TOLERANCE_DEG
+                })
+        });
+        if on_noise {
+            c.noise_frames += 1;
+        }
     }
     let frame_s = if frames.len() > 1 {
         (frames[frames.len() - 1].t_s - frames[0].t_s) / (frames.len() - 1) as f64
@@ -505,7 +582,8 @@ pub fn evaluate_scene_with_plot(
         .collect::<Result<Vec<_>>>()?;
     let frames = track_frames(&rec, config, table)?;
     let seconds = rec.frames.len() as f64 / f64::from(rec.rate);
-    let (counts, worst) = score(&frames, &truths, seconds);
+    let noise = NoiseTruth::read_beside(&wav)?;
+    let (counts, worst) = score(&frames, &truths, &noise, seconds);
     if let Some(plots) = plots {
         let name = entry
             .file
@@ -640,6 +718,17 @@ pub fn format_table(r: &Report) -> String {
             100.0 * m.id_purity,
             100.0 * m.worst_id_purity
         ));
+    }
+    if r.sets.iter().any(|x| x.counts.noise_frames > 0) {
+        s.push_str("frames with an active track on a noise source (NAME.noise.csv):");
+        for x in &r.sets {
+            s.push_str(&format!(
+                " {} {:.1}%",
+                x.set,
+                100.0 * x.metrics.noise_track_share
+            ));
+        }
+        s.push('\n');
     }
     s
 }

@@ -100,7 +100,7 @@ fn folder_of(path: &Path) -> &Path {
 
 /// Checks before any work that the folder of the output `path` exists (outputs into it are written
 /// at the end): the error names `path` and the missing folder. Links and device paths are left to
-/// [`write`].
+/// [`write()`].
 pub fn check_folder(path: &Path) -> Result<()> {
     let dir = folder_of(path);
     if std::fs::symlink_metadata(path).is_err() && !dir.is_dir() {

@@ -137,6 +137,10 @@ pub struct MultiTalkerSpec {
     pub seed: u64,
     /// The capsules of the simulated array (`--capsule-gain-db`, `--capsule-beta`, `--beta-drift`).
     pub array: crate::array_model::ArrayModel,
+    /// Directional noise sources (levels relative to one talker's power).
+    pub noise_sources: Vec<crate::noise_source::NoiseSource>,
+    /// The room the noise sources are rendered through.
+    pub source_room: crate::noise_source::SourceRoom,
 }
 
 /// A synthesised multi-talker scene.
@@ -323,6 +327,21 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             }
         }
     }
+    if !spec.noise_sources.is_empty() {
+        let sources = crate::noise_source::render(
+            &spec.noise_sources,
+            &spec.source_room,
+            spec.rate,
+            total,
+            1.0,
+            spec.seed,
+        );
+        for (m, s) in mix.iter_mut().zip(sources) {
+            for (d, v) in m.iter_mut().zip(s) {
+                *d += v;
+            }
+        }
+    }
     let mut rendered = spec.array.render(&mix[0], &mix[1], &mix[2], spec.rate);
     // Every talker has unit power over his speaking time, the diffuse noise is below that.
     let reference = spec.snr_db.map_or(1.0, |snr| 10f64.powf(-snr / 10.0));
@@ -439,13 +458,39 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
                 .into(),
         ));
     }
-    let rooms = a
-        .multi
-        .talker_rir
+    if a.room.is_some() && !a.multi.talker_rir.is_empty() {
+        return Err(SimError::Usage(
+            "--talkers: give either --room or --talker-rir".into(),
+        ));
+    }
+    let noise_sources = a
+        .noise_sources
         .iter()
-        .zip(directs)
-        .map(|(p, d)| RoomResponse::read(p, a.rate, a.rir_n3d, a.rir_length, d))
+        .map(|s| crate::noise_source::NoiseSource::parse(s))
         .collect::<Result<Vec<_>>>()?;
+    let (rooms, source_room) = if a.room.is_some() {
+        let mut rooms = Vec::with_capacity(n);
+        let mut source_room = crate::noise_source::SourceRoom::Free;
+        for az in &azimuths {
+            let (r, s) = crate::commands::scene::rooms(a, *az)?;
+            rooms.extend(r);
+            source_room = s;
+        }
+        (rooms, source_room)
+    } else {
+        let rooms = a
+            .multi
+            .talker_rir
+            .iter()
+            .zip(directs)
+            .map(|(p, d)| RoomResponse::read(p, a.rate, a.rir_n3d, a.rir_length, d))
+            .collect::<Result<Vec<_>>>()?;
+        let source_room = match rooms.first() {
+            Some(r) => crate::noise_source::SourceRoom::Measured(r.clone()),
+            None => crate::noise_source::SourceRoom::Free,
+        };
+        (rooms, source_room)
+    };
     let sources = a
         .multi
         .talker_source
@@ -469,6 +514,8 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
         peak_dbfs: a.peak_dbfs,
         seed: a.seed,
         array: a.array.model()?,
+        noise_sources,
+        source_room,
     };
     let s = synthesize(&spec)?;
     write(
@@ -477,6 +524,7 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
         a.format,
         a.manifest.as_deref().map(|m| (m, a.set.as_str())),
     )?;
+    crate::commands::scene::write_noise_truth(&a.out, &spec.noise_sources)?;
     eprintln!(
         "scene: wrote {} ({:.2} s, {} Hz, {} talkers) and {} truth files ({})",
         a.out.display(),

@@ -338,7 +338,11 @@ pub fn render(
         let [w, x, y] = rendered.map(|v| v.into_iter().skip(pre).take(total).collect::<Vec<f64>>());
         // The level holds between the ramps.
         let a = if on == 0 { 0 } else { (on + ramp).min(off) };
-        let b = if off == total { total } else { off.saturating_sub(ramp).max(a + 1) };
+        let b = if off == total {
+            total
+        } else {
+            off.saturating_sub(ramp).max(a + 1)
+        };
         let p = w[a..b].iter().map(|v| v * v).sum::<f64>() / (b - a) as f64;
         let g = (reference_power * 10f64.powf(src.level_db / 10.0) / p.max(1e-30)).sqrt();
         for (o, v) in out.iter_mut().zip([w, x, y]) {
