@@ -238,3 +238,80 @@ fn eval_scores_a_generated_folder() {
     .unwrap();
     assert!(plots.join("accuracy.png").exists() && plots.join("e0.png").exists());
 }
+
+#[test]
+fn a_talker_in_a_shoebox_room_with_a_fan_is_found_and_the_fan_is_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = make_scene(
+        dir.path(),
+        "fan.wav",
+        &[
+            "--synth",
+            "8",
+            "--azimuth",
+            "-60",
+            "--room",
+            "6x5x3:0.4",
+            "--distance",
+            "1.5",
+            "--snr",
+            "20",
+            "--noise-source",
+            "fan,az=70,el=20,dist=1.5,level=-18",
+            "--seed",
+            "5",
+        ],
+    );
+    let truth = std::fs::read_to_string(wav.with_extension("noise.csv")).unwrap();
+    assert!(
+        truth
+            .lines()
+            .nth(1)
+            .unwrap()
+            .starts_with("fan,70.00,20.00,1.50,-18.00,0.000,"),
+        "{truth}"
+    );
+    let rows = locate(&wav, &[]);
+    let err = errors_after(&rows, 1.0, -60.0);
+    let within = err.iter().filter(|e| **e <= 10.0).count() as f64 / err.len() as f64;
+    assert!(within >= 0.9, "only {:.0} % within 10°", 100.0 * within);
+    // A white-noise loudspeaker 10 dB above the talker at the fan's place takes the estimate.
+    let loud = make_scene(
+        dir.path(),
+        "loud.wav",
+        &[
+            "--synth",
+            "8",
+            "--azimuth",
+            "-60",
+            "--room",
+            "6x5x3:0.4",
+            "--snr",
+            "20",
+            "--noise-source",
+            "white,az=70,el=20,dist=1.5,level=10",
+            "--seed",
+            "5",
+        ],
+    );
+    let loud_err = errors_after(&locate(&loud, &[]), 1.0, -60.0);
+    assert!(
+        median(&loud_err) > median(&err) + 20.0,
+        "a loudspeaker 10 dB above the talker left the estimate at {} deg median error",
+        median(&loud_err)
+    );
+    // Bad source specifications are usage errors naming the flag.
+    let bad = path_in(dir.path(), "bad.wav");
+    let e = host_sim(&[
+        "scene",
+        "--out",
+        &bad,
+        "--synth",
+        "2",
+        "--noise-source",
+        "drill,az=3",
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("--noise-source"), "{e}");
+}
