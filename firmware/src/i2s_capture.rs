@@ -41,8 +41,8 @@
 use crate::i2s_align::{align, channel_matches, StreamPosition};
 use crate::sample::WORDS_PER_STEREO_FRAME;
 
-/// Sample frames per block the F411 board reads (2 ms at 16 kHz).
-pub const BLOCK_FRAMES: usize = crate::board_api::BLOCK_FRAMES;
+/// Sample frames per block the F411 board reads (2 ms at 16 kHz): the boards' one block size.
+pub use crate::board_api::BLOCK_FRAMES;
 /// Sample frames per DMA ring (8 ms at 16 kHz): how far the DSP task may lag behind.
 pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
 /// Halfwords per block of one receiver.
