@@ -242,26 +242,30 @@ fn eval_scores_a_generated_folder() {
 #[test]
 fn a_talker_in_a_shoebox_room_with_a_fan_is_found_and_the_fan_is_recorded() {
     let dir = tempfile::tempdir().unwrap();
-    let wav = make_scene(
-        dir.path(),
-        "fan.wav",
-        &[
-            "--synth",
-            "8",
-            "--azimuth",
-            "-60",
-            "--room",
-            "6x5x3:0.4",
-            "--distance",
-            "1.5",
-            "--snr",
-            "20",
-            "--noise-source",
-            "fan,az=70,el=20,dist=1.5,level=-18",
-            "--seed",
-            "5",
-        ],
-    );
+    // A talker at -60° in a room, with one noise source.
+    let scene = |name: &str, source: &str| {
+        make_scene(
+            dir.path(),
+            name,
+            &[
+                "--synth",
+                "8",
+                "--azimuth",
+                "-60",
+                "--room",
+                "6x5x3:0.4",
+                "--distance",
+                "1.5",
+                "--snr",
+                "20",
+                "--noise-source",
+                source,
+                "--seed",
+                "5",
+            ],
+        )
+    };
+    let wav = scene("fan.wav", "fan,az=70,el=20,dist=1.5,level=-18");
     let truth = std::fs::read_to_string(wav.with_extension("noise.csv")).unwrap();
     assert!(
         truth
@@ -276,24 +280,7 @@ fn a_talker_in_a_shoebox_room_with_a_fan_is_found_and_the_fan_is_recorded() {
     let within = err.iter().filter(|e| **e <= 10.0).count() as f64 / err.len() as f64;
     assert!(within >= 0.9, "only {:.0} % within 10°", 100.0 * within);
     // A white-noise loudspeaker 10 dB above the talker at the fan's place takes the estimate.
-    let loud = make_scene(
-        dir.path(),
-        "loud.wav",
-        &[
-            "--synth",
-            "8",
-            "--azimuth",
-            "-60",
-            "--room",
-            "6x5x3:0.4",
-            "--snr",
-            "20",
-            "--noise-source",
-            "white,az=70,el=20,dist=1.5,level=10",
-            "--seed",
-            "5",
-        ],
-    );
+    let loud = scene("loud.wav", "white,az=70,el=20,dist=1.5,level=10");
     let loud_err = errors_after(&locate(&loud, &[]), 1.0, -60.0);
     assert!(
         median(&loud_err) > median(&err) + 20.0,
