@@ -1,5 +1,6 @@
 //! Configuration of the localizer: plain values, fixed while the localizer runs.
 
+use crate::background_field::BackgroundField;
 use crate::capsule_calibration::CapsuleCalibration;
 use crate::cartesian_filter::Smoothing;
 use crate::combination::{Combination, FdivSpread};
@@ -138,6 +139,9 @@ pub struct LocatorConfig {
     /// Blind self-calibration of the cardioids from the diffuse background (similarity method; not
     /// in the thesis).
     pub capsule_calibration: CapsuleCalibration,
+    /// The measured stationary background the noisy references mix toward
+    /// ([`crate::background_field`]).
+    pub background: BackgroundField,
     /// How the peaks of a frame are combined (§5.1.4: rule 1 mean curve, rule 2 eq. 5.13).
     pub combination: Combination,
     /// Where b filters: the similarity curve (eq. 5.31) or the result in Cartesian form (eq. 5.30).
@@ -187,6 +191,7 @@ impl LocatorConfig {
             noise_gate: NoiseGate::OFF,
             frame_onset: FrameOnset::OFF,
             capsule_calibration: CapsuleCalibration::OFF,
+            background: BackgroundField::OFF,
             combination: Combination::MeanCurve,
             smoothing: Smoothing::Curve,
             fdiv_spread: FdivSpread::OFF,
@@ -256,6 +261,9 @@ impl LocatorConfig {
                 "self-calibration: finite background dB ≥ 0, memory ≥ 1 frame, prior ≥ 0, anisotropy > 0",
             );
         }
+        if c.background.enabled && !c.background.is_valid() {
+            return invalid("background: finite background dB ≥ 0, rise ≥ 0, memory ≥ 1 frame");
+        }
         if !c.kernel.is_valid() {
             return invalid("kernel: need a finite scale > 0");
         }
@@ -305,6 +313,7 @@ impl Default for LocatorConfig {
         c.features = FeatureKind::Active;
         c.frame_onset = DEFAULT_FRAME_ONSET;
         c.capsule_calibration = CapsuleCalibration::DEFAULT;
+        c.background = BackgroundField::DEFAULT;
         c
     }
 }

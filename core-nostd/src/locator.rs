@@ -203,6 +203,7 @@ impl<'t> Locator<'t> {
         self.frame_onset = FrameOnsetState::new(&self.config.frame_onset);
         self.similarity
             .reset_calibration(self.config.capsule_calibration);
+        self.similarity.reset_background(self.config.background);
     }
 
     /// Validates and applies the configuration and resets the front end (input guard, decimator,

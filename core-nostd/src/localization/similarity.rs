@@ -131,14 +131,18 @@ pub struct PeakFeature {
     pub y: Feature,
     /// Weight of the peak in the mean curve.
     pub weight: f32,
+    /// The noise point Y_η its noisy references mix toward: the table's noise row of `fi`, or the
+    /// measured background's feature ([`crate::background_field`]).
+    pub noise: Feature,
 }
 
 impl PeakFeature {
-    /// An unused slot: row 0, zero features and weight.
+    /// An unused slot: row 0, zero features and weight, the ideal model's noise point.
     pub const NONE: PeakFeature = PeakFeature {
         fi: 0,
         y: [0.0; 3],
         weight: 0.0,
+        noise: [0.5; 3],
     };
 }
 
@@ -237,11 +241,27 @@ impl CurveBuilder {
         y: Feature,
         weight: f32,
         curve: &mut [f32],
+        distance: Option<DistanceSum<'_>>,
+    ) {
+        let noise = table.rows(self.features).noise(fi);
+        self.accumulate_with_noise(table, fi, noise, y, weight, curve, distance);
+    }
+
+    /// [`CurveBuilder::accumulate_into`] with the noisy references of the magnitude mixing mixed
+    /// toward `noise_mag` instead of the row's noise row (power mixing keeps the table's).
+    #[allow(clippy::too_many_arguments)]
+    pub fn accumulate_with_noise(
+        &self,
+        table: &ReferenceTable<'_>,
+        fi: usize,
+        noise_mag: Feature,
+        y: Feature,
+        weight: f32,
+        curve: &mut [f32],
         mut distance: Option<DistanceSum<'_>>,
     ) {
         let rows = table.rows(self.features);
         let row = rows.row(fi);
-        let noise_mag = rows.noise(fi);
         let noise_pow = table.noise_power(fi);
         let fast = self.measure == SimilarityMeasure::Euclidean
             && !self.mean_free
@@ -325,7 +345,8 @@ impl CurveBuilder {
             self.accumulate(table, fi, y, weight, curve);
             return;
         };
-        let noise_mag = self.fill_cache(cache, table, fi);
+        let noise = table.rows(self.features).noise(fi);
+        let noise_mag = self.fill_cache(cache, table, fi, noise);
         self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q], None);
     }
 
@@ -361,15 +382,16 @@ impl CurveBuilder {
             }
             for p in peaks {
                 let ds = distance.as_mut().map(DistanceSum::reborrow);
-                self.accumulate_into(table, p.fi, p.y, p.weight, curve, ds);
+                self.accumulate_with_noise(table, p.fi, p.noise, p.y, p.weight, curve, ds);
             }
             return;
         };
         let curve = &mut curve[..q];
         let mut rest = peaks;
         while let Some(p) = rest.first() {
-            let noise_mag = self.fill_cache(cache, table, p.fi);
-            let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
+            let noise_mag = self.fill_cache(cache, table, p.fi, p.noise);
+            let same = |x: &&PeakFeature| x.fi == p.fi && x.noise == p.noise;
+            let run = rest.iter().take(GROUP).take_while(same).count();
             let ds = distance.as_mut().map(DistanceSum::reborrow);
             if run == 2 {
                 let (p2, ws) = (rest[1], [p.weight, rest[1].weight]);
@@ -431,22 +453,33 @@ impl CurveBuilder {
         ok.then_some(q)
     }
 
-    /// Makes `cache` hold row `fi` of the table's rows for this builder's feature kind; returns the
-    /// row's omni-noise feature Y_η.
+    /// Makes `cache` hold row `fi` of the table's rows for this builder's feature kind relative to
+    /// the noise point `noise`; returns it.
     #[inline(always)]
-    fn fill_cache(&self, cache: &mut RowCache, table: &ReferenceTable<'_>, fi: usize) -> Feature {
-        if cache.fi == fi {
+    fn fill_cache(
+        &self,
+        cache: &mut RowCache,
+        table: &ReferenceTable<'_>,
+        fi: usize,
+        noise: Feature,
+    ) -> Feature {
+        if cache.fi == fi && cache.noise == noise {
             return cache.noise;
         }
-        self.refill_cache(cache, &table.rows(self.features), fi)
+        self.refill_cache(cache, &table.rows(self.features), fi, noise)
     }
 
     /// [`CurveBuilder::fill_cache`] when the cache holds another row (with the ideal tables, which
     /// have one row, only once), out of line so that the per-peak loop keeps its registers (a
     /// [`FeatureRows`] live across it cost the Cortex-M4F ≈ 360 instructions per hop).
     #[inline(never)]
-    fn refill_cache(&self, cache: &mut RowCache, rows: &FeatureRows<'_>, fi: usize) -> Feature {
-        let noise_mag = rows.noise(fi);
+    fn refill_cache(
+        &self,
+        cache: &mut RowCache,
+        rows: &FeatureRows<'_>,
+        fi: usize,
+        noise_mag: Feature,
+    ) -> Feature {
         let entries = rows
             .row(fi)
             .iter()
@@ -957,6 +990,7 @@ mod tests {
             fi: rows[i],
             y: [rnd() * 1.5, rnd() * 1.5, rnd() * 1.5],
             weight: 0.2 + rnd(),
+            noise: rows_of_kind.noise(rows[i]),
         });
         for n in 0..=peaks.len() {
             let (mut batch, mut single) = ([0.125f32; 72], [0.125f32; 72]);
@@ -1031,10 +1065,12 @@ mod tests {
                     if (i + k) % 7 == 0 {
                         y[k % 3] = special[(i + k) % special.len()];
                     }
+                    let fi = usize::from(k >= 2);
                     PeakFeature {
-                        fi: usize::from(k >= 2),
+                        fi,
                         y,
                         weight: 0.2 + rnd(),
+                        noise: table.rows(b.features).noise(fi),
                     }
                 });
                 let start: [f32; 128] = core::array::from_fn(|_| rnd());
@@ -1190,11 +1226,17 @@ mod tests {
                 // Two peaks of one row in one pass.
                 let y2 = [rnd(), rnd() * 2.0, rnd()];
                 let peaks = [
-                    PeakFeature { fi, y, weight: 0.3 },
+                    PeakFeature {
+                        fi,
+                        y,
+                        weight: 0.3,
+                        noise: table.rows(b.features).noise(fi),
+                    },
                     PeakFeature {
                         fi,
                         y: y2,
                         weight: 1.7,
+                        noise: table.rows(b.features).noise(fi),
                     },
                 ];
                 let (mut batch, mut single) = (start, start);

@@ -4,6 +4,7 @@
 //!
 //! Tracking over frames is not part of it ([`crate::curve_tracker`]).
 
+use crate::background_field::{BackgroundField, BackgroundFieldState};
 use crate::capsule_calibration::{CapsuleCalibration, CapsuleCalibrationState, CapsuleEstimate};
 use crate::config::LocatorConfig;
 use crate::direct_sound::{DirectSound, OnsetState};
@@ -28,6 +29,23 @@ pub struct FrameDiagnostics {
     pub num_peaks: usize,
     /// Mean direct-sound weight of the peaks (1 when the weighting is off).
     pub mean_peak_weight: f32,
+}
+
+/// Orders `peaks` so that peaks of equal table row and noise point are adjacent (a stable
+/// insertion sort by the first appearance of each (row, point); at most [`MAX_PEAKS`] entries).
+fn sort_by_noise_point(peaks: &mut [PeakFeature]) {
+    let mut done = 0;
+    while done < peaks.len() {
+        let key = (peaks[done].fi, peaks[done].noise);
+        let mut end = done + 1;
+        for i in done + 1..peaks.len() {
+            if (peaks[i].fi, peaks[i].noise) == key {
+                peaks[end..=i].rotate_right(1);
+                end += 1;
+            }
+        }
+        done = end;
+    }
 }
 
 /// What a frame gives the tracking stages.
@@ -64,6 +82,8 @@ pub struct SimilarityFrame {
     onset: OnsetState,
     /// Blind self-calibration of the cardioids.
     capsules: CapsuleCalibrationState,
+    /// The measured stationary background the noisy references mix toward.
+    background: BackgroundFieldState,
     /// The estimate the self-calibration starts from at every reset.
     capsule_start: CapsuleEstimate,
     diagnostics: FrameDiagnostics,
@@ -93,6 +113,7 @@ impl SimilarityFrame {
             distance: [0.0; MAX_AZIMUTHS],
             onset: OnsetState::new(),
             capsules: CapsuleCalibrationState::idle(),
+            background: BackgroundFieldState::idle(),
             capsule_start: CapsuleEstimate::IDEAL,
             diagnostics: FrameDiagnostics {
                 curve_variance: 0.0,
@@ -143,6 +164,12 @@ impl SimilarityFrame {
             .reset(settings, fs, fs / HOP as f32, &self.capsule_start);
     }
 
+    /// Restarts the background field with `settings` (nothing measured yet).
+    pub fn reset_background(&mut self, settings: BackgroundField) {
+        let fs = self.fs;
+        self.background.reset(settings, fs, fs / HOP as f32);
+    }
+
     /// Sets the estimate the self-calibration starts from and applies it now.
     pub fn set_capsule_start(&mut self, start: &CapsuleEstimate) {
         self.capsule_start = *start;
@@ -170,7 +197,8 @@ impl SimilarityFrame {
         spectra.transform_omni_fold_cardioids(frame);
         let calibrating = c.capsule_calibration.enabled;
         self.pick_peaks(spectra, clean, calibrating);
-        let (n_used, weight_sum) = self.peak_features(spectra, used, c.direct_sound, calibrating);
+        let (n_used, weight_sum) =
+            self.peak_features(spectra, table, used, c.direct_sound, calibrating);
         let q = table.num_azimuths();
         self.curves.frame_curve(
             &mut self.row_cache,
@@ -223,9 +251,13 @@ impl SimilarityFrame {
             *p = power(*c);
         }
         self.picker.process(&self.omni_power, &mut self.peaks);
+        let (lo, hi) = self.picker.band();
         if calibrating {
-            let (lo, hi) = self.picker.band();
             self.capsules.begin_frame(&self.omni_power, lo, hi, clean);
+        }
+        if self.background.settings().enabled {
+            self.background
+                .begin_frame(&self.omni_power, lo, hi, clean);
         }
     }
 
@@ -235,11 +267,14 @@ impl SimilarityFrame {
     fn peak_features(
         &mut self,
         spectra: &FrameSpectra,
+        table: &ReferenceTable<'_>,
         used: &mut [PeakFeature; MAX_PEAKS],
         ds: DirectSound,
         calibrating: bool,
     ) -> (usize, f32) {
         let omni = spectra.omni();
+        let rows = table.rows(self.curves.features);
+        let background = self.background.settings().enabled;
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
         // On x86_64 the cardioid bins of all peaks first, two recursions at a time (the Cortex-M4F
@@ -262,6 +297,15 @@ impl SimilarityFrame {
             } else {
                 xc
             };
+            let fi = self.bin_rows[k] as usize;
+            let noise = if background {
+                self.background.add_peak(k, omni[k], &xc);
+                let band = self.background.band_of_bin(k);
+                self.background
+                    .noise_point(band, self.curves.features, rows.noise(fi))
+            } else {
+                rows.noise(fi)
+            };
             let Some(y) = self.curves.features.of_bin(omni[k], p0, xc) else {
                 continue;
             };
@@ -274,13 +318,23 @@ impl SimilarityFrame {
             if !(w > 0.0) {
                 continue;
             }
-            let fi = self.bin_rows[k] as usize;
             let Some(slot) = used.get_mut(n_used) else {
                 break;
             };
-            *slot = PeakFeature { fi, y, weight: w };
+            *slot = PeakFeature {
+                fi,
+                y,
+                weight: w,
+                noise,
+            };
             weight_sum += w;
             n_used += 1;
+        }
+        if background {
+            self.background.end_frame();
+            // Peaks of one noise point together: the curve builder then computes each point's
+            // per-azimuth constants once per frame.
+            sort_by_noise_point(&mut used[..n_used]);
         }
         (n_used, weight_sum)
     }

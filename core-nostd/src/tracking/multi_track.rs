@@ -598,6 +598,7 @@ mod tests {
             fi: 0,
             y,
             weight: 1.0,
+            noise: [0.5; 3],
         }
     }
 
@@ -761,6 +762,7 @@ mod tests {
             fi: 0,
             y: [f32::NAN, f32::INFINITY, -1.0],
             weight: f32::NAN,
+            noise: [0.5; 3],
         }; 4];
         for _ in 0..50 {
             s.update(
@@ -831,7 +833,12 @@ mod tests {
             for (peaks, gate, az, b) in frames {
                 let peaks: Vec<PeakFeature> = peaks
                     .into_iter()
-                    .map(|(a, b, c, w)| PeakFeature { fi: 0, y: [a, b, c], weight: w })
+                    .map(|(a, b, c, w)| PeakFeature {
+                        fi: 0,
+                        y: [a, b, c],
+                        weight: w,
+                        noise: [0.5; 3],
+                    })
                     .collect();
                 s.update(&MultiTrack::DEFAULT, &peaks, gate, Some((az, b)));
                 let mut ids = [0u16; MAX_TRACKS];
