@@ -38,6 +38,10 @@ const PATHS: &[(&str, &str)] = &[
         "CapsuleCalibration",
         "cma_core::capsule_calibration::CapsuleCalibration",
     ),
+    (
+        "BackgroundField",
+        "cma_core::background_field::BackgroundField",
+    ),
     ("Combination", "cma_core::combination::Combination"),
     ("MultiTrack", "cma_core::multi_track::MultiTrack"),
     ("FdivSpread", "cma_core::combination::FdivSpread"),

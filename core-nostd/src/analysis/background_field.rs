@@ -26,12 +26,12 @@
 //! and |X_c|² over its peaks with the cardioids as the similarity sees them (after the
 //! self-calibration's correction), relative to Σ|X_0|². Each such frame's ratios join a running
 //! mean over about [`BackgroundField::memory_frames`] background frames, and the band's feature is
-//! shrunk toward the table's noise row while its evidence is small (n/(n + `memory_frames`/4)).
+//! shrunk toward the table's noise row while its evidence is small (weight n/(`memory_frames`/2),
+//! at most 1). The similarity gets the means every [`PUBLISH_FRAMES`] frames.
 //!
 //! State: per band a floor, 7 running values and a count (≈ 0.2 KB in all). Work per hop: a sum
 //! over the analysis band's omni powers, and on background bands six multiply–adds per peak.
 
-use crate::capsule_calibration::{band_of_frequency, CAL_BANDS};
 use crate::features::FeatureKind;
 use crate::noise_floor::{NoiseFloor, NoiseGate};
 use crate::power_ramp::power_ratio_from_db;
@@ -39,8 +39,16 @@ use crate::reference_table::Feature;
 use crate::{CARDIOIDS, NUM_BINS};
 use microfft::Complex32;
 
-/// Number of frequency bands with their own background feature (the self-calibration's bands).
-pub const BG_BANDS: usize = CAL_BANDS;
+/// Number of frequency bands with their own background feature.
+pub const BG_BANDS: usize = 2;
+
+/// Upper edges of the bands, Hz (the last band runs to Nyquist).
+pub const BG_BAND_EDGES_HZ: [f32; BG_BANDS - 1] = [1000.0];
+
+/// The band of frequency `f_hz`: the number of edges at or below it.
+fn band_of_frequency(f_hz: f32) -> usize {
+    BG_BAND_EDGES_HZ.iter().filter(|e| f_hz >= **e).count()
+}
 
 /// Settings of the background field.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -124,7 +132,22 @@ pub struct BackgroundFieldState {
     means: [BandMeans; BG_BANDS],
     background_ratio: f32,
     pole: f32,
+    /// Feature kind of the published points.
+    kind: FeatureKind,
+    /// Per band: the measured feature the similarity uses and its weight against the table's row.
+    published: [(Feature, f32); BG_BANDS],
+    /// Frames since the reset (the publication schedule).
+    frames: u32,
 }
+
+/// Each band's measured feature is handed to the similarity every this many frames, the bands in
+/// turn (each publication makes the similarity recompute that band's per-azimuth constants once, so
+/// one hop does it for one band at most).
+pub const PUBLISH_FRAMES: u32 = 16;
+const _: () = assert!(
+    (PUBLISH_FRAMES as usize).is_multiple_of(BG_BANDS),
+    "bands publish in turn"
+);
 
 impl BackgroundFieldState {
     /// An idle state (the stage off).
@@ -143,18 +166,32 @@ impl BackgroundFieldState {
             }; BG_BANDS],
             background_ratio: 1.0,
             pole: 1.0,
+            kind: FeatureKind::Active,
+            published: [([0.5; CARDIOIDS], 0.0); BG_BANDS],
+            frames: 0,
         }
     }
 
     /// Makes this state a fresh one for `settings` at analysis rate `fs` Hz (`frames_per_s`
     /// analysis frames per second), in place.
-    pub fn reset(&mut self, settings: BackgroundField, fs: f32, frames_per_s: f32) {
+    pub fn reset(
+        &mut self,
+        settings: BackgroundField,
+        kind: FeatureKind,
+        fs: f32,
+        frames_per_s: f32,
+    ) {
         *self = Self::idle();
         self.settings = settings;
+        self.kind = kind;
         let band_of = |k: usize| band_of_frequency(crate::spectrum::bin_frequency(k, fs));
         for (b, range) in self.band_bins.iter_mut().enumerate() {
-            let start = (0..NUM_BINS).position(|k| band_of(k) >= b).unwrap_or(NUM_BINS);
-            let end = (0..NUM_BINS).position(|k| band_of(k) > b).unwrap_or(NUM_BINS);
+            let start = (0..NUM_BINS)
+                .position(|k| band_of(k) >= b)
+                .unwrap_or(NUM_BINS);
+            let end = (0..NUM_BINS)
+                .position(|k| band_of(k) > b)
+                .unwrap_or(NUM_BINS);
             *range = (start as u16, end as u16);
         }
         let gate = NoiseGate {
@@ -218,8 +255,14 @@ impl BackgroundFieldState {
         }
     }
 
-    /// Ends a frame: each background band's ratios join its running means.
+    /// Ends a frame: each background band's ratios join its running means; every
+    /// [`PUBLISH_FRAMES`] frames each band's mean is published, the bands in turn.
     pub fn end_frame(&mut self) {
+        self.frames = self.frames.wrapping_add(1);
+        let phase = self.frames % PUBLISH_FRAMES;
+        if phase.is_multiple_of(PUBLISH_FRAMES / BG_BANDS as u32) {
+            self.publish((phase / (PUBLISH_FRAMES / BG_BANDS as u32)) as usize);
+        }
         let cap = self.settings.memory_frames;
         for (m, s) in self.means.iter_mut().zip(&self.frame) {
             if !(s.ww > 0.0) || !s.ww.is_finite() {
@@ -245,21 +288,36 @@ impl BackgroundFieldState {
         }
     }
 
-    /// The noise point of band `band` for features of `kind`: the measured background's feature,
-    /// shrunk toward `table_noise` (the reference table's noise row) while its evidence is small.
+    /// The noise point of band `band` relative to `table_noise` (the reference table's noise row
+    /// of the peak's row): the published measured feature, shrunk toward `table_noise` while its
+    /// evidence is small. Constant between two publications ([`PUBLISH_FRAMES`]), so that the
+    /// similarity's per-azimuth constants stay valid.
     #[inline]
     #[must_use]
-    pub fn noise_point(&self, band: usize, kind: FeatureKind, table_noise: Feature) -> Feature {
-        let m = &self.means[band.min(BG_BANDS - 1)];
-        if !(m.n > 0.0) {
+    pub fn noise_point(&self, band: usize, table_noise: Feature) -> Feature {
+        let (measured, w) = self.published[band.min(BG_BANDS - 1)];
+        if !(w > 0.0) {
             return table_noise;
         }
-        let measured = match kind {
-            FeatureKind::Active => m.active,
-            FeatureKind::Magnitude => m.power.map(|p| crate::fast_math::sqrtf(clamp0(p))),
-        };
-        let w = m.n / (m.n + 0.25 * self.settings.memory_frames);
         [0, 1, 2].map(|c| table_noise[c] + w * (measured[c] - table_noise[c]))
+    }
+
+    /// Publishes band `band`'s running mean for features of the configured kind with its weight
+    /// against the table's row: n/(`memory_frames`/2), at most 1.
+    fn publish(&mut self, band: usize) {
+        let kind = self.kind;
+        let inv_half = 2.0 / self.settings.memory_frames;
+        if let (Some(out), Some(m)) = (self.published.get_mut(band), self.means.get(band)) {
+            if !(m.n > 0.0) {
+                return;
+            }
+            let measured = match kind {
+                FeatureKind::Active => m.active,
+                FeatureKind::Magnitude => m.power.map(|p| crate::fast_math::sqrtf(clamp0(p))),
+            };
+            let w = m.n * inv_half;
+            *out = (measured, if w < 1.0 { w } else { 1.0 });
+        }
     }
 }
 
@@ -280,14 +338,18 @@ mod tests {
 
     /// Omni and cardioids of a plane wave from `az` degrees with amplitude `a`.
     fn wave(az: f32, a: Complex32) -> (Complex32, [Complex32; CARDIOIDS]) {
-        let c = [0.0f32, 120.0, 240.0]
-            .map(|l| a * (0.5 + 0.5 * libm::cosf((az - l).to_radians())));
+        let c = [0.0f32, 120.0, 240.0].map(|l| a * (0.5 + 0.5 * libm::cosf((az - l).to_radians())));
         (a, c)
     }
 
     fn state() -> BackgroundFieldState {
         let mut s = BackgroundFieldState::idle();
-        s.reset(BackgroundField::DEFAULT, FS, FS / crate::HOP as f32);
+        s.reset(
+            BackgroundField::DEFAULT,
+            FeatureKind::Active,
+            FS,
+            FS / crate::HOP as f32,
+        );
         s
     }
 
@@ -297,13 +359,15 @@ mod tests {
     fn a_directional_background_measures_its_own_feature() {
         let mut s = state();
         let mut rng = Lcg(3);
-        let bins = [20usize, 60, 120, 200];
+        let bins = [15usize, 30, 60, 120];
         for frame in 0..300 {
             let loud = frame % 5 == 0;
             let mut power = [0.0f32; NUM_BINS];
             let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 4];
             for (i, &k) in bins.iter().enumerate() {
-                let a = Complex32::new(rng.unit() - 0.5, rng.unit() - 0.5);
+                // Random phase, amplitude 0.5–1.
+                let (ph, r) = (core::f32::consts::TAU * rng.unit(), 0.5 + 0.5 * rng.unit());
+                let a = Complex32::new(r * libm::cosf(ph), r * libm::sinf(ph));
                 let (w, x) = if loud {
                     let (w1, x1) = wave(170.0, a * 10.0);
                     let (w2, x2) = wave(40.0, a);
@@ -317,7 +381,7 @@ mod tests {
             // A steady floor under the peaks.
             for (k, p) in power.iter_mut().enumerate() {
                 if *p == 0.0 && (10..=300).contains(&k) {
-                    *p = 0.5;
+                    *p = 0.01;
                 }
             }
             s.begin_frame(&power, 10, 300, true);
@@ -328,7 +392,7 @@ mod tests {
         }
         let (_, want) = wave(40.0, Complex32::new(1.0, 0.0));
         for band in 0..BG_BANDS {
-            let y = s.noise_point(band, FeatureKind::Active, [0.5; 3]);
+            let y = s.noise_point(band, [0.5; 3]);
             for c in 0..3 {
                 assert!(
                     (y[c] - want[c].re).abs() < 0.03,
@@ -344,13 +408,13 @@ mod tests {
     fn without_evidence_the_table_row_stands() {
         let mut s = state();
         let row = [0.5, 0.4, 0.6];
-        assert_eq!(s.noise_point(0, FeatureKind::Active, row), row);
+        assert_eq!(s.noise_point(0, row), row);
         let power = [f32::NAN; NUM_BINS];
         s.begin_frame(&power, 10, 300, true);
         let nan = Complex32::new(f32::NAN, 0.0);
         s.add_peak(20, nan, &[nan; 3]);
         s.end_frame();
-        assert_eq!(s.noise_point(0, FeatureKind::Active, row), row);
+        assert_eq!(s.noise_point(0, row), row);
         assert!(BackgroundField::DEFAULT.is_valid());
         assert!(!BackgroundField {
             memory_frames: 0.5,

@@ -71,8 +71,13 @@ pub fn mean_free(y: Feature) -> Feature {
 /// Most peaks of one row that [`CurveBuilder::accumulate_peaks`] takes in one pass.
 const GROUP: usize = 2;
 
-/// Azimuths a [`RowCache`] holds (tables with more azimuths take the uncached path).
-pub const ROW_CACHE_LEN: usize = 128;
+/// Azimuths a [`RowCache`] holds: the 5° grid (tables with more azimuths take the uncached path).
+pub const ROW_CACHE_LEN: usize = 72;
+
+/// Rows a [`RowCache`] holds at once: one per band of the background field
+/// ([`crate::background_field::BG_BANDS`]), so that peaks of every band keep their constants from
+/// frame to frame.
+pub const ROW_CACHE_SLOTS: usize = crate::background_field::BG_BANDS;
 
 /// The per-azimuth constants of one frequency row of the fast Euclidean path of
 /// [`CurveBuilder::accumulate_cached`]: with r = Y_ref(q) − Y_η, the vector −2r, ‖r‖² and
@@ -83,7 +88,7 @@ pub const ROW_CACHE_LEN: usize = 128;
 /// SSE2 kernel that takes four azimuths at a time; elsewhere (the Cortex-M4F) as one array of
 /// five-element entries.
 #[derive(Debug, Clone, Copy)]
-pub struct RowCache {
+pub struct CachedRow {
     /// Row the entries belong to (`usize::MAX`: none).
     fi: usize,
     /// The row's omni-noise feature Y_η, which the entries are relative to.
@@ -96,8 +101,8 @@ pub struct RowCache {
     soa: [[f32; ROW_CACHE_LEN]; 5],
 }
 
-impl RowCache {
-    /// An empty cache.
+impl CachedRow {
+    /// An empty slot.
     #[must_use]
     pub const fn new() -> Self {
         Self {
@@ -109,10 +114,38 @@ impl RowCache {
             soa: [[0.0; ROW_CACHE_LEN]; 5],
         }
     }
+}
 
-    /// Forgets the cached row (call when the table or the feature kind changes).
+impl Default for CachedRow {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The last rows the cached path used, each relative to its noise point: [`ROW_CACHE_SLOTS`]
+/// [`CachedRow`]s, the least recently used one refilled on a miss.
+#[derive(Debug, Clone, Copy)]
+pub struct RowCache {
+    slots: [CachedRow; ROW_CACHE_SLOTS],
+    /// Look-ups since each slot was last used.
+    age: [u32; ROW_CACHE_SLOTS],
+}
+
+impl RowCache {
+    /// An empty cache.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            slots: [CachedRow::new(); ROW_CACHE_SLOTS],
+            age: [0; ROW_CACHE_SLOTS],
+        }
+    }
+
+    /// Forgets the cached rows (call when the table or the feature kind changes).
     pub fn clear(&mut self) {
-        self.fi = usize::MAX;
+        for s in &mut self.slots {
+            s.fi = usize::MAX;
+        }
     }
 }
 
@@ -346,8 +379,9 @@ impl CurveBuilder {
             return;
         };
         let noise = table.rows(self.features).noise(fi);
-        let noise_mag = self.fill_cache(cache, table, fi, noise);
-        self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q], None);
+        let slot = self.fill_cache(cache, table, fi, noise);
+        let cache = &cache.slots[slot];
+        self.accumulate_group(cache, noise, [y], [weight], &mut curve[..q], None);
     }
 
     /// [`CurveBuilder::accumulate_cached`] for each peak in order, with two consecutive peaks of the
@@ -389,7 +423,8 @@ impl CurveBuilder {
         let curve = &mut curve[..q];
         let mut rest = peaks;
         while let Some(p) = rest.first() {
-            let noise_mag = self.fill_cache(cache, table, p.fi, p.noise);
+            let slot = self.fill_cache(cache, table, p.fi, p.noise);
+            let (cache, noise_mag) = (&cache.slots[slot], p.noise);
             let same = |x: &&PeakFeature| x.fi == p.fi && x.noise == p.noise;
             let run = rest.iter().take(GROUP).take_while(same).count();
             let ds = distance.as_mut().map(DistanceSum::reborrow);
@@ -453,8 +488,9 @@ impl CurveBuilder {
         ok.then_some(q)
     }
 
-    /// Makes `cache` hold row `fi` of the table's rows for this builder's feature kind relative to
-    /// the noise point `noise`; returns it.
+    /// Makes a slot of `cache` hold row `fi` of the table's rows for this builder's feature kind
+    /// relative to the noise point `noise` (refilling the least recently used one on a miss);
+    /// returns its index.
     #[inline(always)]
     fn fill_cache(
         &self,
@@ -462,11 +498,32 @@ impl CurveBuilder {
         table: &ReferenceTable<'_>,
         fi: usize,
         noise: Feature,
-    ) -> Feature {
-        if cache.fi == fi && cache.noise == noise {
-            return cache.noise;
+    ) -> usize {
+        for a in &mut cache.age {
+            *a = a.saturating_add(1);
         }
-        self.refill_cache(cache, &table.rows(self.features), fi, noise)
+        let hit = (0..ROW_CACHE_SLOTS)
+            .find(|&i| cache.slots[i].fi == fi && cache.slots[i].noise == noise);
+        let i = match hit {
+            Some(i) => i,
+            None => {
+                let mut oldest = 0;
+                for i in 1..ROW_CACHE_SLOTS {
+                    if cache.age[i] > cache.age[oldest] {
+                        oldest = i;
+                    }
+                }
+                self.refill_cache(
+                    &mut cache.slots[oldest],
+                    &table.rows(self.features),
+                    fi,
+                    noise,
+                );
+                oldest
+            }
+        };
+        cache.age[i] = 0;
+        i
     }
 
     /// [`CurveBuilder::fill_cache`] when the cache holds another row (with the ideal tables, which
@@ -475,7 +532,7 @@ impl CurveBuilder {
     #[inline(never)]
     fn refill_cache(
         &self,
-        cache: &mut RowCache,
+        cache: &mut CachedRow,
         rows: &FeatureRows<'_>,
         fi: usize,
         noise_mag: Feature,
@@ -505,7 +562,7 @@ impl CurveBuilder {
     #[inline(always)]
     fn accumulate_group<const G: usize>(
         &self,
-        cache: &RowCache,
+        cache: &CachedRow,
         noise_mag: Feature,
         ys: [Feature; G],
         weights: [f32; G],
@@ -531,7 +588,7 @@ impl CurveBuilder {
     #[allow(clippy::too_many_arguments)]
     fn power_loop<const G: usize, const S: bool>(
         &self,
-        cache: &RowCache,
+        cache: &CachedRow,
         noise_mag: Feature,
         ys: [Feature; G],
         weights: [f32; G],
@@ -555,7 +612,7 @@ impl CurveBuilder {
     #[inline(always)]
     fn group_loop<const G: usize, const S: bool, const D: bool, const P2: u8>(
         &self,
-        cache: &RowCache,
+        cache: &CachedRow,
         noise_mag: Feature,
         ys: [Feature; G],
         weights: [f32; G],
@@ -1035,7 +1092,7 @@ mod tests {
         let special = [0.0, 1e-30, 1e30, -2.0, f32::INFINITY, f32::NAN];
         for (qn, power) in [
             (72usize, DistancePower::One),
-            (73, DistancePower::ThreeHalves),
+            (71, DistancePower::ThreeHalves),
             (72, DistancePower::Two),
             (7, DistancePower::ThreeHalves),
         ] {

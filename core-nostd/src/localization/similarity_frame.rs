@@ -167,7 +167,8 @@ impl SimilarityFrame {
     /// Restarts the background field with `settings` (nothing measured yet).
     pub fn reset_background(&mut self, settings: BackgroundField) {
         let fs = self.fs;
-        self.background.reset(settings, fs, fs / HOP as f32);
+        let kind = self.curves.features;
+        self.background.reset(settings, kind, fs, fs / HOP as f32);
     }
 
     /// Sets the estimate the self-calibration starts from and applies it now.
@@ -256,8 +257,7 @@ impl SimilarityFrame {
             self.capsules.begin_frame(&self.omni_power, lo, hi, clean);
         }
         if self.background.settings().enabled {
-            self.background
-                .begin_frame(&self.omni_power, lo, hi, clean);
+            self.background.begin_frame(&self.omni_power, lo, hi, clean);
         }
     }
 
@@ -301,8 +301,7 @@ impl SimilarityFrame {
             let noise = if background {
                 self.background.add_peak(k, omni[k], &xc);
                 let band = self.background.band_of_bin(k);
-                self.background
-                    .noise_point(band, self.curves.features, rows.noise(fi))
+                self.background.noise_point(band, rows.noise(fi))
             } else {
                 rows.noise(fi)
             };
