@@ -1,8 +1,8 @@
-//! `host-sim monitor`: reads the board's frame lines from a serial port, decodes them with the core's
-//! [`cma_core::wire`] decoder and shows them — a live compass view in a terminal, or one text line per
-//! frame (`--plain`, also when stdout is not a terminal) — with counters for corrupt lines, lost frames
-//! (sequence gaps) and the board's own overrun/drop counters. `--record` writes the frames as the CSV of
-//! `host-sim locate` for `host-sim eval`/`host-sim score`.
+//! The host side of a board's serial stream: the byte-stream [`Decoder`] (line assembly with the
+//! core's [`cma_core::wire`] decoder, and counters for corrupt lines, lost frames — sequence gaps —
+//! and the board's own overrun/drop counters), the text of each line (`--plain`), the live compass
+//! view ([`render`]), the frame-rate meter and the `--record` writer. No port and no terminal:
+//! `host-sim monitor` (`commands::monitor`) drives them.
 //!
 //! The board's calibration lines (`$CAL`, the self-calibration's state, one every 10 s) are decoded
 //! too: the live view shows the last one in one line ([`calibration_summary`]), `--plain` prints
@@ -19,14 +19,11 @@
 //!   more, modulo 2³²); a step backwards (by 2³¹ or more, a board restart) counts as a *restart*, a
 //!   repeated `seq` as a *duplicate*, neither as lost;
 //! - *garbage bytes*: bytes outside any line (before a `$`).
-//!
-//! Ctrl-C ends the monitor like `--frames` or `--exit-after-idle` do: the summary is printed and the
-//! record is complete.
 
 use crate::error::{Result, SimError};
-use crate::estimate_output::{flag_names, Format};
-use crate::locate::CSV_HEADER;
-use crate::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
+use crate::io::estimate_output::{flag_names, Format};
+use crate::io::serial_link::DEFAULT_BAUD;
+use crate::localization::frame_estimates::CSV_HEADER;
 use cma_core::capsule_calibration::CAL_BANDS;
 use cma_core::wire::{
     self, AssemblerStats, CalibrationLine, DecodeError, Frame, Line, LineAssembler, TracksLine,
@@ -36,39 +33,9 @@ use cma_core::Flags;
 use cma_core::CARDIOIDS;
 use std::collections::VecDeque;
 use std::fmt::Write as _;
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-
-/// `host-sim monitor`.
-#[derive(Debug, clap::Args)]
-#[command(after_help = MONITOR_AFTER_HELP)]
-pub struct MonitorArgs {
-    /// Serial device (e.g. /dev/ttyUSB0, /dev/ttyACM0, or a socat pty).
-    #[arg(long)]
-    pub port: PathBuf,
-    /// Baud rate (8N1, no flow control).
-    #[arg(long, default_value_t = DEFAULT_BAUD,
-          value_parser = clap::value_parser!(u32).range(serial_link::BAUD_RANGE))]
-    pub baud: u32,
-    /// One text line per frame instead of the live view (automatic when stdout is not a terminal).
-    #[arg(long)]
-    pub plain: bool,
-    /// Record the frames to this file (the columns of `host-sim locate`; power_db is empty: not sent;
-    /// calibration lines are not recorded).
-    #[arg(long)]
-    pub record: Option<PathBuf>,
-    /// Format of --record: CSV, or one JSON object per line.
-    #[arg(long, value_enum, default_value_t = Format::Csv)]
-    pub format: Format,
-    /// Exit after this many seconds without a byte (default: run until Ctrl-C).
-    #[arg(long, value_name = "SECONDS", value_parser = crate::arg_values::positive_seconds)]
-    pub exit_after_idle: Option<f64>,
-    /// Exit after this many decoded frames.
-    #[arg(long)]
-    pub frames: Option<u64>,
-}
 
 /// Monitor counters (see the module documentation for the exact definitions).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -125,15 +92,6 @@ impl Counters {
         }
     }
 }
-
-/// The end of `monitor --help`.
-const MONITOR_AFTER_HELP: &str =
-    "Live view: the compass rose has 0° up and angles counter-clockwise \
-(90° to the left); @ is the weighted azimuth at the tip of its needle (* when confident, : when \
-not), x the azimuth of the last frame alone, + a tick every 30°, o the array. It needs 80×24; a \
-smaller terminal gets the numbers without the rose. Flags are printed as in the CSV: the decimal \
-sum of 1 SILENT, 2 CLIPPED, 4 NON_FINITE, 8 NO_PEAKS, 16 NO_HISTORY. Ctrl-C ends the monitor with \
-its summary.";
 
 /// Bytes without a decoded frame after which the monitor says why (wrong baud rate or noise).
 pub const WRONG_BAUD_BYTES: u64 = 8 * MAX_LINE as u64;
@@ -473,7 +431,8 @@ pub fn jsonl_row(f: &Frame) -> Option<String> {
 
 /// Writes `--record` rows incrementally, flushed after each row. The file is written in place as
 /// the frames come (a FIFO or a symbolic link works like a regular file).
-struct Recorder {
+#[derive(Debug)]
+pub struct Recorder {
     path: PathBuf,
     out: std::io::BufWriter<std::fs::File>,
     format: Format,
@@ -481,7 +440,8 @@ struct Recorder {
 }
 
 impl Recorder {
-    fn create(path: &Path, format: Format) -> Result<Recorder> {
+    /// Creates (truncates) `path` and writes the CSV header if `format` is CSV.
+    pub fn create(path: &Path, format: Format) -> Result<Recorder> {
         let f = std::fs::File::create(path).map_err(|e| SimError::io(path, e))?;
         let mut r = Recorder {
             path: path.to_path_buf(),
@@ -497,7 +457,9 @@ impl Recorder {
         Ok(r)
     }
 
-    fn write(&mut self, f: &Frame) -> Result<()> {
+    /// Writes the row of `f` and flushes it; a frame without a rate (no time) is skipped and
+    /// counted ([`Recorder::skipped_no_rate`]).
+    pub fn write(&mut self, f: &Frame) -> Result<()> {
         let row = match self.format {
             Format::Csv => csv_row(f),
             Format::Jsonl => jsonl_row(f),
@@ -510,18 +472,25 @@ impl Recorder {
             .and_then(|()| self.out.flush())
             .map_err(|e| SimError::io(&self.path, e))
     }
+
+    /// Frames not recorded because their rate was 0 (no time).
+    #[must_use]
+    pub fn skipped_no_rate(&self) -> u64 {
+        self.skipped_no_rate
+    }
 }
 
 /// Arrival rate of frames over the last few seconds.
 #[derive(Debug, Default)]
-struct RateMeter {
+pub struct RateMeter {
     arrivals: VecDeque<Instant>,
 }
 
 impl RateMeter {
     const WINDOW: Duration = Duration::from_secs(3);
 
-    fn tick(&mut self, now: Instant) {
+    /// Counts a frame that arrived at `now`.
+    pub fn tick(&mut self, now: Instant) {
         self.arrivals.push_back(now);
         while self
             .arrivals
@@ -532,7 +501,9 @@ impl RateMeter {
         }
     }
 
-    fn per_second(&self, now: Instant) -> f64 {
+    /// Frames per second over the last few seconds, as of `now` (0 when frames stopped).
+    #[must_use]
+    pub fn per_second(&self, now: Instant) -> f64 {
         match (self.arrivals.front(), self.arrivals.back()) {
             (Some(first), Some(_)) if self.arrivals.len() >= 2 => {
                 if now.duration_since(*first) > Self::WINDOW * 2 {
@@ -624,18 +595,30 @@ pub fn draw_rose_with_talkers(
 }
 
 /// What the live view shows.
-struct View<'a> {
-    port: &'a Path,
-    baud: u32,
-    connected: bool,
-    last: Option<&'a Frame>,
-    calibration: Option<&'a CalibrationLine>,
-    tracks: Option<&'a TracksLine>,
-    counters: Counters,
-    reopens: u64,
-    fps: f64,
-    status: Option<String>,
-    recording: Option<&'a Path>,
+#[derive(Debug, Clone)]
+pub struct View<'a> {
+    /// The serial port.
+    pub port: &'a Path,
+    /// Its baud rate.
+    pub baud: u32,
+    /// Whether the port is open.
+    pub connected: bool,
+    /// The last frame decoded.
+    pub last: Option<&'a Frame>,
+    /// The last calibration line decoded.
+    pub calibration: Option<&'a CalibrationLine>,
+    /// The last track line decoded.
+    pub tracks: Option<&'a TracksLine>,
+    /// The decoder's counters.
+    pub counters: Counters,
+    /// Times the port was reopened.
+    pub reopens: u64,
+    /// Frames per second ([`RateMeter::per_second`]).
+    pub fps: f64,
+    /// A status message (port lost, a wrong-baud hint).
+    pub status: Option<String>,
+    /// The `--record` file, if recording.
+    pub recording: Option<&'a Path>,
 }
 
 /// Terminal size (columns, rows) the full live view needs: the rose beside the numbers.
@@ -648,7 +631,10 @@ pub const LEGEND: &str =
 /// Width of the rose column of the full view (the rose and two spaces).
 const ROSE_COLUMN: usize = (4 * ROSE_R + 1 + 8 + 2) as usize;
 
-fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
+/// The live view of `v` for a terminal of `cols`×`rows`: the whole screen, from the cursor's home
+/// position; the rose beside the numbers from [`FULL_VIEW`] on, the numbers alone below it.
+#[must_use]
+pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     let (az, raw, conf) = match v.last {
         Some(f) => (
             Some(f64::from(f.azimuth_tenths) / 10.0),
@@ -768,191 +754,6 @@ fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     }
     out.push_str("\x1b[J");
     out
-}
-
-/// The terminal's (columns, rows), or [`FULL_VIEW`] if it cannot be asked.
-fn terminal_size() -> (usize, usize) {
-    console::Term::stdout()
-        .size_checked()
-        .map_or(FULL_VIEW, |(rows, cols)| {
-            (usize::from(cols), usize::from(rows))
-        })
-}
-
-/// Set by Ctrl-C (SIGINT/SIGTERM); the monitor's loop ends on it and prints its summary.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-/// Installs the Ctrl-C handler once per process (later calls, and a handler installed by someone
-/// else, leave the default behaviour: exit without the summary).
-fn catch_interrupt() {
-    static INSTALL: std::sync::Once = std::sync::Once::new();
-    INSTALL.call_once(|| {
-        if let Err(e) = ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst)) {
-            eprintln!("monitor: Ctrl-C will not print the summary ({e})");
-        }
-    });
-    INTERRUPTED.store(false, Ordering::SeqCst);
-}
-
-/// Minimum time between two redraws of the live view (at most 20 per second).
-const REDRAW_INTERVAL: Duration = Duration::from_millis(50);
-
-/// Runs `host-sim monitor`.
-pub fn run(a: &MonitorArgs) -> Result<()> {
-    let mut link = Link::open(&a.port, a.baud)?;
-    catch_interrupt();
-    eprintln!("monitor: opened {} at {} baud", a.port.display(), a.baud);
-    let live = !a.plain && std::io::stdout().is_terminal();
-    let mut recorder = a
-        .record
-        .as_deref()
-        .map(|p| Recorder::create(p, a.format))
-        .transpose()?;
-    let mut dec = Decoder::new();
-    let mut meter = RateMeter::default();
-    let mut last: Option<Frame> = None;
-    let mut last_calibration: Option<CalibrationLine> = None;
-    let mut last_tracks: Option<TracksLine> = None;
-    let mut buf = [0u8; 4096];
-    let mut last_byte = Instant::now();
-    let mut last_draw: Option<Instant> = None;
-    let mut status: Option<String> = None;
-    let mut hint_shown = false;
-    let mut was_connected = true;
-    let stdout = std::io::stdout();
-    if live {
-        print!("\x1b[2J");
-    }
-    loop {
-        let outcome = link.read(&mut buf);
-        let now = Instant::now();
-        match outcome {
-            ReadOutcome::Data(n) => {
-                last_byte = now;
-                let mut failure = None;
-                let mut out = stdout.lock();
-                dec.feed_lines(&buf[..n], |line| {
-                    let text = match line {
-                        Line::Frame(f) => {
-                            meter.tick(now);
-                            last = Some(*f);
-                            if let Some(r) = recorder.as_mut() {
-                                if let Err(e) = r.write(f) {
-                                    failure.get_or_insert(e);
-                                }
-                            }
-                            (!live).then(|| plain_line(f))
-                        }
-                        Line::Calibration(c) => {
-                            last_calibration = Some(*c);
-                            (!live).then(|| calibration_plain_line(c))
-                        }
-                        Line::Tracks(t) => {
-                            last_tracks = Some(*t);
-                            (!live).then(|| tracks_plain_line(t))
-                        }
-                    };
-                    if let Some(text) = text {
-                        if let Err(e) = writeln!(out, "{text}") {
-                            failure.get_or_insert(SimError::io("<stdout>", e));
-                        }
-                    }
-                });
-                if let Err(e) = out.flush() {
-                    failure.get_or_insert(SimError::io("<stdout>", e));
-                }
-                if let Some(e) = failure {
-                    return Err(e);
-                }
-            }
-            ReadOutcome::Idle => {}
-            ReadOutcome::Disconnected => {
-                if was_connected {
-                    let msg = format!(
-                        "port {} lost ({}); waiting for it to come back",
-                        a.port.display(),
-                        link.last_error.as_deref().unwrap_or("unknown error")
-                    );
-                    if !live {
-                        eprintln!("monitor: {msg}");
-                    }
-                    status = Some(msg);
-                    was_connected = false;
-                    dec.reset_line();
-                }
-            }
-            ReadOutcome::Reopened => {
-                let msg = format!("port {} reopened", a.port.display());
-                if !live {
-                    eprintln!("monitor: {msg}");
-                }
-                status = Some(msg);
-                was_connected = true;
-            }
-        }
-        match dec.baud_hint(a.baud).or_else(|| dec.noise_hint()) {
-            Some(h) => {
-                if !hint_shown && !live {
-                    eprintln!("monitor: {h}");
-                }
-                hint_shown = true;
-                status = Some(h);
-            }
-            None if hint_shown => {
-                hint_shown = false;
-                status = None;
-            }
-            None => {}
-        }
-        if live && last_draw.is_none_or(|t| now.duration_since(t) >= REDRAW_INTERVAL) {
-            let view = View {
-                port: &a.port,
-                baud: a.baud,
-                connected: link.is_connected(),
-                last: last.as_ref(),
-                calibration: last_calibration.as_ref(),
-                tracks: last_tracks.as_ref(),
-                counters: dec.counters(),
-                reopens: link.reopens,
-                fps: meter.per_second(now),
-                status: status.clone(),
-                recording: a.record.as_deref(),
-            };
-            let (cols, rows) = terminal_size();
-            let mut out = stdout.lock();
-            let _ = out.write_all(render(&view, cols, rows).as_bytes());
-            let _ = out.flush();
-            last_draw = Some(now);
-        }
-        if a.exit_after_idle
-            .is_some_and(|s| now.duration_since(last_byte).as_secs_f64() >= s)
-        {
-            break;
-        }
-        if a.frames.is_some_and(|n| dec.counters().frames >= n) {
-            break;
-        }
-        if INTERRUPTED.load(Ordering::SeqCst) {
-            if live {
-                println!();
-            }
-            eprintln!("monitor: interrupted");
-            break;
-        }
-    }
-    if let Some(r) = &recorder {
-        if r.skipped_no_rate > 0 {
-            eprintln!(
-                "monitor: {} frames with rate_hz 0 not recorded (no time)",
-                r.skipped_no_rate
-            );
-        }
-    }
-    eprintln!("monitor: summary {}", dec.counters().summary(link.reopens));
-    if let Some(e) = dec.last_error() {
-        eprintln!("monitor: last rejected line: {e}");
-    }
-    Ok(())
 }
 
 #[cfg(test)]
