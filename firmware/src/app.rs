@@ -9,38 +9,37 @@
 //!                               start and every 10 s
 //! ```
 //!
-//! It sees the board only through the board contract, [`cma_firmware::board_api::Board`], and the
-//! traits and constants of [`cma_firmware::board_api`]; each binary mounts its board module as
-//! `crate::board`, whose `Selected` type is the board (`src/boards/f411.rs`: STM32F411CE with two
-//! I2S ADCs; `src/boards/f446.rs`: NUCLEO-F446RE with one 4-channel TDM ADC on SAI;
-//! `src/boards/mps2.rs`: QEMU `mps2-an386`).
+//! It sees the board only through the board contract, [`crate::board_api::Board`], and the
+//! traits and constants of [`crate::board_api`]; the board is [`crate::boards::Selected`], the one
+//! the build's `board-*` feature selects (`src/boards/f411.rs`: STM32F411CE with two I2S ADCs;
+//! `src/boards/f446.rs`: NUCLEO-F446RE with one 4-channel TDM ADC on SAI; `src/boards/mps2.rs`:
+//! QEMU `mps2-an386`). Each binary (`src/bin/`) starts [`run`] on its board.
 //!
 //! The self-calibration starts from the newest estimate the board saved in its flash
-//! ([`cma_firmware::estimate_store`]), else from the one embedded at build time
-//! ([`cma_firmware::stored_capsules`], `CMA_SELFCAL=path`; ideal without it), and saves a confident,
+//! ([`crate::estimate_store`]), else from the one embedded at build time
+//! ([`crate::stored_capsules`], `CMA_SELFCAL=path`; ideal without it), and saves a confident,
 //! changed estimate at a calibration snapshot at most once a minute. A build with
 //! the `multi-talker` feature runs the multi-talker tracks and sends a `$TRK,…` line after every
 //! frame line.
 
-use crate::board;
+use crate::board_api::{
+    Board, FrameWriter, SampleSource, Watchdog as _, BLOCK_FRAMES, ERASE_WATCHDOG_TIMEOUT_US,
+    SAMPLE_RATE_HZ,
+};
+use crate::estimate_store::{EstimateStore, SavePolicy};
+use crate::stats::Counters;
+use crate::stored_capsules;
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::capsule_estimate_record::key_of;
 use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
-use cma_firmware::board_api::{
-    Board, FrameWriter, SampleSource, Watchdog as _, BLOCK_FRAMES, ERASE_WATCHDOG_TIMEOUT_US,
-    SAMPLE_RATE_HZ,
-};
-use cma_firmware::estimate_store::{EstimateStore, SavePolicy};
-use cma_firmware::stats::Counters;
-use cma_firmware::stored_capsules;
 use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
 
 /// The board this binary runs ([`Board`]).
-type ThisBoard = board::Selected;
+type ThisBoard = crate::boards::Selected;
 /// Its capsules.
 type AudioIn = <ThisBoard as Board>::Audio;
 /// Its frame link.
@@ -163,7 +162,7 @@ fn init_locator() -> &'static mut Locator<'static> {
     // table already describes the capsules, so the self-calibration (which maps them to the ideal
     // model) is off with one.
     // The configuration embedded at build time: `CMA_CONFIG`, else `LocatorConfig::default()`.
-    let mut config: LocatorConfig = cma_firmware::embedded_config::CONFIG;
+    let mut config: LocatorConfig = crate::embedded_config::CONFIG;
     if cma_core::embedded_table::HAS_MEASURED_TABLE {
         config.capsule_calibration.enabled = false;
     }
@@ -205,7 +204,7 @@ fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
 ///
 /// Real-time contract: each call of `AudioIn::read` returns [`BLOCK_FRAMES`] sample frames; the
 /// blocks that complete an analysis hop (256 input samples, 16 ms at 16 kHz) carry its analysis,
-/// which must end before the board's capture ring (`board::RING_FRAMES`) fills. When it does fill,
+/// which must end before the board's capture ring ([`crate::board_api::RING_FRAMES`]) fills. When it does fill,
 /// the board realigns the capture and reports an overrun, which is counted and appears in the `ovr`
 /// field of the following frames; the localizer keeps its state (its sample clock then runs behind
 /// the input by the samples lost). Estimates never wait for the UART: when the queue is full they

@@ -28,6 +28,20 @@ pub const SAMPLE_RATE_HZ: u32 = 16_000;
 /// Sample frames per block every board delivers (2 ms at 16 kHz).
 pub const BLOCK_FRAMES: usize = 32;
 
+/// Sample frames every board's capture ring holds (8 ms at 16 kHz): the longest the DSP task may
+/// lag behind before an overrun.
+pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
+
+/// UART baud rate of every board's frame stream (8N1).
+pub const UART_BAUD: u32 = 115_200;
+
+/// Watchdog timeout while the application runs on every board, µs (each board's
+/// [`Board::WATCHDOG_TIMEOUT_US`]). The DSP task pets it after every block delivered, so a stalled
+/// capture, a capture that fails block after block, or a hung task resets the chip. From reset
+/// until then (start-up, the estimate store's erase at boot) the watchdog runs with
+/// [`ERASE_WATCHDOG_TIMEOUT_US`].
+pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+
 /// A board: what the application needs from it, and nothing else.
 pub trait Board {
     /// The four capsules: blocks of [`BLOCK_FRAMES`] sample frames, with overrun reports.

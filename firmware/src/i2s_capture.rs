@@ -44,7 +44,7 @@ use crate::sample::WORDS_PER_STEREO_FRAME;
 /// Sample frames per block the F411 board reads (2 ms at 16 kHz): the boards' one block size.
 pub use crate::board_api::BLOCK_FRAMES;
 /// Sample frames per DMA ring (8 ms at 16 kHz): how far the DSP task may lag behind.
-pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
+pub use crate::board_api::RING_FRAMES;
 /// Halfwords per block of one receiver.
 pub const BLOCK_WORDS: usize = BLOCK_FRAMES * WORDS_PER_STEREO_FRAME;
 /// Halfwords per DMA ring of one receiver.

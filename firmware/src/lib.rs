@@ -20,17 +20,25 @@
 //!   append-only log of records) and when to save it;
 //! * [`wav`] and [`emulated`] — the emulated board's WAV decoding, fault schedule and report lines.
 //!
-//! The embassy application (`src/app.rs`) and the boards (`src/boards/f411.rs` for the STM32F411CE,
-//! `src/boards/f446.rs` for the STM32F446RE, `src/boards/mps2.rs` for QEMU `mps2-an386`) only build
-//! for the target: `src/main.rs`, `src/bin/firmware-f446.rs` and `src/bin/firmware-mps2.rs` put
-//! one board under the application each.
+//! Target only (`--target thumbv7em-none-eabihf`):
+//! * `app` — the embassy application (capture → core → frame lines), the same on every board;
+//! * `boards` — the boards (`boards/f411.rs` for the STM32F411CE, `boards/f446.rs` for the
+//!   STM32F446RE, `boards/mps2.rs` for QEMU `mps2-an386`); the `board-*` feature selects one;
+//! * the runtime glue (defmt over RTT, the panic handler).
+//!
+//! One binary per board starts the application: `src/bin/firmware.rs` (STM32F411CE),
+//! `src/bin/firmware-f446.rs` and `src/bin/firmware-mps2.rs`.
 #![no_std]
 
 // The host tests use `Vec`.
 #[cfg(test)]
 extern crate std;
 
+#[cfg(target_os = "none")]
+pub mod app;
 pub mod board_api;
+#[cfg(target_os = "none")]
+pub mod boards;
 pub mod clock_plan;
 pub mod embedded_config;
 pub mod emulated;
@@ -38,6 +46,8 @@ pub mod estimate_store;
 pub mod i2s_align;
 pub mod i2s_capture;
 pub mod restart_mask;
+#[cfg(target_os = "none")]
+mod runtime;
 pub mod sample;
 pub mod stats;
 pub mod stored_capsules;

@@ -1,7 +1,7 @@
 //! Runtime glue, the same for every board: defmt over RTT, a panic handler that logs the panic with
 //! defmt and then faults (with a probe attached the debugger stops there; without one the HardFault
-//! loop is ended by the watchdog, which resets the board), defmt timestamps, and the entry point
-//! that starts the application on embassy's executor.
+//! loop is ended by the watchdog, which resets the board) and defmt timestamps. The entry point,
+//! which starts the application on embassy's executor, is each binary's (`src/bin/`).
 
 use defmt_rtt as _;
 use panic_probe as _;
@@ -15,26 +15,4 @@ defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());
 #[defmt::panic_handler]
 fn defmt_panic() -> ! {
     cortex_m::asm::udf()
-}
-
-/// STM32F411CE and STM32F446RE: embassy's thread-mode executor (sleeps with `WFE`).
-#[cfg(any(feature = "board-f411", feature = "board-f446"))]
-#[embassy_executor::main]
-async fn main(spawner: embassy_executor::Spawner) {
-    crate::app::run(spawner).await;
-}
-
-/// Emulated board: the same executor in the board's loop (sleeps with `WFI`, which QEMU emulates
-/// as a halt; it treats `WFE` as a no-op, so embassy's loop would spin).
-#[cfg(feature = "board-mps2")]
-#[cortex_m_rt::entry]
-fn main() -> ! {
-    crate::board::run_executor(|spawner| spawner.spawn(start(spawner).unwrap()))
-}
-
-/// Starts the application.
-#[cfg(feature = "board-mps2")]
-#[embassy_executor::task]
-async fn start(spawner: embassy_executor::Spawner) {
-    crate::app::run(spawner).await;
 }

@@ -8,7 +8,7 @@ use cma_core::front_end::FrontEnd;
 use cma_core::input_guard::InputGuard;
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use host_sim::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
+use host_sim::simulation::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
 use std::hint::black_box;
 
 fn scene() -> Vec<[f32; 4]> {
@@ -23,7 +23,7 @@ fn scene() -> Vec<[f32; 4]> {
         seed: 9,
         array: Default::default(),
         noise_sources: Vec::new(),
-        source_room: host_sim::noise_source::SourceRoom::Free,
+        source_room: host_sim::simulation::noise_source::SourceRoom::Free,
     };
     synthesize(&spec).frames
 }

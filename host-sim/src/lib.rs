@@ -2,7 +2,8 @@
 //!
 //! Runs *the same* `cma-core` code as the firmware on WAV files, block by block, and adds what a
 //! desk needs: evaluation against ground truth with plots, and a scene simulator for tests.
-//! The binary `host-sim` is a thin wrapper around [`run`].
+//! The binary `host-sim` is a thin wrapper around [`run`]; each subcommand is a module of
+//! [`commands`] (its flags and its `run`), thin over the library modules beside it.
 
 pub mod calibration;
 pub mod commands;
@@ -11,19 +12,14 @@ pub mod evaluation;
 pub mod flags;
 pub mod io;
 pub mod localization;
+pub mod serial;
 pub mod simulation;
 
-// Every library module also at the crate root, where the rest of the crate and its users name it.
-pub use calibration::{calibrate, selfcal_table, sweep};
-pub use commands::{emit, monitor, score};
-pub use evaluation::{distance_eval, eval, metrics, multi_talker_eval, options_eval, plots};
-pub use flags::{arg_values, config_args};
-pub use io::{
-    estimate_output, fixed_decimal, ground_truth, manifest, output_file, selfcal_file, serial_link,
-    stdout_text, table_io, text_file, wav_io,
-};
-pub use localization::{beam, locate};
-pub use simulation::{array_model, multi_talker_scene, noise_source, room, scene, signal};
+// The modules `evaluation::multi_talker_eval` names at the crate root; every other user names a
+// module by its path.
+pub use evaluation::plots;
+pub use io::{ground_truth, stdout_text, text_file, wav_io};
+pub use simulation::multi_talker_scene;
 
 use clap::{CommandFactory, FromArgMatches, Subcommand};
 use error::{Result, SimError};
@@ -139,18 +135,19 @@ const EXAMPLES: &[(&str, &str)] = &[
 ];
 
 /// The command line of `host-sim` as clap parses it: [`Cli`] with every configuration flag's help
-/// showing its file key and preset values ([`config_args::flag_notes`]) and an example per command.
+/// showing its file key and preset values ([`flags::config_args::flag_notes`]) and an example per command.
 #[must_use]
 pub fn command() -> clap::Command {
     let mut cmd = Cli::command();
-    let notes = config_args::flag_notes();
+    let notes = flags::config_args::flag_notes();
     for (name, example) in EXAMPLES {
         cmd = cmd.mut_subcommand(*name, |s| {
             let after = s
                 .get_after_help()
                 .map(|h| format!("{h}\n\n"))
                 .unwrap_or_default();
-            config_args::annotate(s, &notes).after_help(format!("{after}Example:\n  {example}"))
+            flags::config_args::annotate(s, &notes)
+                .after_help(format!("{after}Example:\n  {example}"))
         });
     }
     cmd
@@ -173,7 +170,7 @@ where
                 clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
             ) =>
         {
-            return stdout_text::print_text(&e.to_string());
+            return io::stdout_text::print_text(&e.to_string());
         }
         Err(e) => return Err(SimError::Cli(e)),
     };

@@ -10,7 +10,7 @@ fn main() -> ExitCode {
     match host_sim::run(std::env::args_os()) {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of the output went away (`host-sim eval … | head`): not a failure.
-        Err(e) if host_sim::stdout_text::is_closed_stdout(&e) => ExitCode::SUCCESS,
+        Err(e) if host_sim::io::stdout_text::is_closed_stdout(&e) => ExitCode::SUCCESS,
         Err(SimError::Cli(e)) => {
             // clap's own text: `error: …`, the usage and a hint, coloured on a terminal.
             let _ = e.print();

@@ -8,8 +8,8 @@ use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::features::FeatureKind;
 use cma_core::reference_table::Feature;
 use cma_core::ReferenceTable;
-use host_sim::array_model::ArrayModel;
-use host_sim::table_io::OwnedTable;
+use host_sim::io::table_io::OwnedTable;
+use host_sim::simulation::array_model::ArrayModel;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -68,7 +68,7 @@ fn largest_difference(path: &Path, ideal: &ReferenceTable<'_>) -> f32 {
 fn the_ideal_estimate_gives_the_ideal_table() {
     let dir = tempfile::tempdir().unwrap();
     let est = dir.path().join("ideal.selfcal");
-    host_sim::selfcal_file::write(&est, &CapsuleEstimate::IDEAL).unwrap();
+    host_sim::io::selfcal_file::write(&est, &CapsuleEstimate::IDEAL).unwrap();
     let out = dir.path().join("ideal.cmat");
     ok(&["calibrate", "--selfcal-in", &s(&est), "--out", &s(&out)]);
     // The default rows 187.5…4031.25 Hz every 93.75 Hz, on the ideal table's 5° grid.
@@ -161,7 +161,7 @@ fn the_true_model_of_an_imperfect_array_localizes_it() {
     assert!((est.bands[2].omni_part[0] - g0 * 0.55).abs() < 1e-6);
     assert!((est.bands[2].dipole_part[0] - g0 * 0.45).abs() < 1e-6);
     let est_path = dir.path().join("true.selfcal");
-    host_sim::selfcal_file::write(&est_path, &est).unwrap();
+    host_sim::io::selfcal_file::write(&est_path, &est).unwrap();
     let table = dir.path().join("true.cmat");
     ok(&[
         "calibrate",
@@ -217,7 +217,7 @@ fn bad_input_fails_clearly_and_writes_nothing() {
         &["junk.selfcal:1", "not a self-calibration file"],
     );
     // A well-formed file whose band 1 is no plausible cardioid, and one without band 3.
-    let text = host_sim::selfcal_file::format(&CapsuleEstimate::IDEAL);
+    let text = host_sim::io::selfcal_file::format(&CapsuleEstimate::IDEAL);
     let implausible = text.replacen("0.500000", "0.900000", 6);
     let bad = d.join("bad.selfcal");
     std::fs::write(&bad, implausible).unwrap();

@@ -269,7 +269,7 @@ fn record(dir: &Path, name: &str, writer: impl FnOnce(&Path) -> Command) -> Reco
     let mut rows = text.lines().map(str::to_string);
     assert_eq!(
         rows.next().as_deref(),
-        Some(host_sim::locate::CSV_HEADER.trim_end())
+        Some(host_sim::localization::frame_estimates::CSV_HEADER.trim_end())
     );
     Recording {
         csv: rows.collect(),

@@ -89,11 +89,11 @@ fn qemu_firmware_to_monitor() {
         "{err}"
     );
     // The demo's talker circles at 20°/s from 0°: the recorded azimuths follow it.
-    let rows = host_sim::locate::read_csv(&rec).unwrap();
+    let rows = host_sim::localization::frame_estimates::read_csv(&rec).unwrap();
     assert_eq!(rows.len(), 300);
     let worst = rows
         .iter()
-        .map(|r| host_sim::ground_truth::wrap180(r.azimuth_deg - 20.0 * r.t_s).abs())
+        .map(|r| host_sim::io::ground_truth::wrap180(r.azimuth_deg - 20.0 * r.t_s).abs())
         .fold(0.0, f64::max);
     eprintln!("qemu chain: 300 frames, worst azimuth error {worst:.1}°");
     assert!(worst < 5.0, "worst azimuth error {worst}°");

@@ -4,8 +4,8 @@
 
 use cma_core::wire::Line;
 use cma_core::wire::{self, Frame, MAX_LINE};
-use host_sim::locate::{self, CSV_HEADER};
-use host_sim::monitor::{calibration_plain_line, plain_line, tracks_plain_line};
+use host_sim::localization::frame_estimates::{self, CSV_HEADER};
+use host_sim::serial::monitor::{calibration_plain_line, plain_line, tracks_plain_line};
 use std::collections::{BTreeSet, HashMap};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -170,7 +170,7 @@ fn scene(dir: &Path, seconds: f64) -> PathBuf {
 }
 
 /// What `locate` computes for the WAV (default configuration), as wire frames with seq = index.
-fn locate_frames(wav: &Path) -> (Vec<locate::Row>, Vec<Frame>) {
+fn locate_frames(wav: &Path) -> (Vec<frame_estimates::Row>, Vec<Frame>) {
     let cli = <host_sim::Cli as clap::Parser>::try_parse_from([
         "host-sim".into(),
         "locate".into(),
@@ -180,8 +180,8 @@ fn locate_frames(wav: &Path) -> (Vec<locate::Row>, Vec<Frame>) {
     let host_sim::Command::Locate(a) = cli.command else {
         unreachable!("parsed a locate command")
     };
-    let rec = host_sim::wav_io::read_recording(&a.input, a.input_layout).expect("read wav");
-    let rows = locate::locate(
+    let rec = host_sim::io::wav_io::read_recording(&a.input, a.input_layout).expect("read wav");
+    let rows = frame_estimates::locate(
         &rec,
         a.config.config().expect("config"),
         a.config.ideal_table().expect("table"),
@@ -295,21 +295,17 @@ fn emit_to_monitor_round_trip_equals_locate() {
         assert_eq!(counters[k], 0, "{k}");
     }
     // The record reads back as an estimate CSV (what eval/score use).
-    let back = locate::read_csv(&rec).expect("read record");
+    let back = frame_estimates::read_csv(&rec).expect("read record");
     assert_eq!(back.len(), frames.len());
     // `host-sim score` of the record matches that of locate's CSV to the wire's resolution.
     let truth = wav.with_extension("pos.csv");
     let score = |csv: &Path| {
-        host_sim::score::report(&host_sim::score::ScoreArgs {
-            estimates: csv.to_path_buf(),
-            truth: truth.clone(),
-            from: Some(0.0),
-            to: None,
-            json: false,
-        })
-        .expect("score")
-        .overall
-        .settled
+        let window = host_sim::evaluation::recorded_score::window(Some(0.0), None, &truth)
+            .expect("score window");
+        host_sim::evaluation::recorded_score::report(csv, &truth, &window)
+            .expect("score")
+            .overall
+            .settled
     };
     let (m_rec, m_loc) = (score(&rec), score(&loc_csv));
     assert_eq!(m_rec.frames, m_loc.frames);
@@ -344,7 +340,7 @@ fn emit_lines_with(wav: &Path, extra: &[&str]) -> Vec<Line> {
     let host_sim::Command::Emit(a) = cli.command else {
         unreachable!("parsed an emit command")
     };
-    host_sim::emit::lines(&a).expect("emit lines").1
+    host_sim::commands::emit::lines(&a).expect("emit lines").1
 }
 
 /// Calibration lines end to end: `emit` sends one before the first frame and one after the frame

@@ -1,8 +1,8 @@
 //! Helpers shared by the end-to-end tests: temporary scenes made with `host-sim scene` and the
 //! localizer's output for them. Nothing here needs `../shared/`.
 
-use host_sim::ground_truth::wrap180;
-use host_sim::locate::{read_csv, CsvEstimate};
+use host_sim::io::ground_truth::wrap180;
+use host_sim::localization::frame_estimates::{read_csv, CsvEstimate};
 use std::path::{Path, PathBuf};
 
 /// Runs `host-sim` in-process with `args` (without the program name).

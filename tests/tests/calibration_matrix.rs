@@ -14,8 +14,8 @@
 use cma_core::features::FeatureKind;
 use cma_core::{LocatorConfig, ReferenceTable};
 use cma_tests::{host_sim, path_in};
-use host_sim::metrics::Metrics;
-use host_sim::table_io::OwnedTable;
+use host_sim::evaluation::metrics::Metrics;
+use host_sim::io::table_io::OwnedTable;
 use std::path::{Path, PathBuf};
 
 /// The array the recordings and scenes come from.
@@ -263,11 +263,11 @@ fn reference_setup(
 /// The settled-frame metrics of one cell over the array's scenes.
 fn run_cell(fx: &Fixture, c: &Cell) -> Metrics {
     let (config, table) = reference_setup(fx, c.array, c.reference, c.features);
-    let (report, _) = host_sim::eval::evaluate(
+    let (report, _) = host_sim::evaluation::eval::evaluate(
         &fx.scenes(c.array),
         config,
         table,
-        host_sim::wav_io::InputLayout::Cma1,
+        host_sim::io::wav_io::InputLayout::Cma1,
         2,
         &|_| {},
     )

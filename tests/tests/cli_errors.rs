@@ -250,14 +250,18 @@ fn bad_estimate_csv() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("r.csv");
     std::fs::write(&p, "t_s,azimuth_deg\n0.1,3\n").unwrap();
-    let e = host_sim::locate::read_csv(&p).unwrap_err().to_string();
+    let e = host_sim::localization::frame_estimates::read_csv(&p)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("missing column `azimuth_raw_deg`"), "{e}");
     std::fs::write(
         &p,
         "t_s,azimuth_deg,azimuth_raw_deg,confidence\n0.1,3,NaN,1\n",
     )
     .unwrap();
-    let e = host_sim::locate::read_csv(&p).unwrap_err().to_string();
+    let e = host_sim::localization::frame_estimates::read_csv(&p)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains(":2:"), "{e}");
 }
 
@@ -334,7 +338,7 @@ fn negative_numbers_are_flag_values() {
 
 #[test]
 fn score_uses_the_window_eval_uses_and_names_it() {
-    use host_sim::score::{report, window, ScoreArgs};
+    use host_sim::evaluation::recorded_score::{report, window};
     let dir = tempfile::tempdir().unwrap();
     let manifest = path_in(dir.path(), "manifest.csv");
     let wav = make_scene(
@@ -355,26 +359,24 @@ fn score_uses_the_window_eval_uses_and_names_it() {
     );
     let csv = path_in(dir.path(), "a.csv");
     host_sim(&["locate", &wav.to_string_lossy(), "--csv", &csv, "--quiet"]).unwrap();
-    let args = |from: Option<f64>| ScoreArgs {
-        estimates: csv.clone().into(),
-        truth: wav.with_extension("pos.csv"),
-        from,
-        to: None,
-        json: false,
-    };
-    let w = window(&args(None)).unwrap();
+    let estimates = std::path::PathBuf::from(&csv);
+    let truth = wav.with_extension("pos.csv");
+    let w = window(None, None, &truth).unwrap();
     assert!(w.source.contains("manifest.csv"), "{w:?}");
     assert!(w.from_s > 0.6, "{w:?}");
-    let (eval_report, _) = host_sim::eval::evaluate(
+    let (eval_report, _) = host_sim::evaluation::eval::evaluate(
         dir.path(),
         cma_core::LocatorConfig::default(),
         cma_core::ReferenceTable::ideal_5deg(),
-        host_sim::wav_io::InputLayout::Cma1,
+        host_sim::io::wav_io::InputLayout::Cma1,
         1,
         &|_| {},
     )
     .unwrap();
-    let scored = report(&args(None)).unwrap().overall.settled;
+    let scored = report(&estimates, &truth, &window(None, None, &truth).unwrap())
+        .unwrap()
+        .overall
+        .settled;
     let evaluated = &eval_report.overall.settled;
     assert_eq!(scored.frames, evaluated.frames);
     assert!(
@@ -382,11 +384,21 @@ fn score_uses_the_window_eval_uses_and_names_it() {
         "{scored:?} {evaluated:?}"
     );
     // The flags win; without a manifest every frame is scored, and that is said.
-    assert_eq!(window(&args(Some(0.0))).unwrap().source, "--from/--to");
+    assert_eq!(
+        window(Some(0.0), None, &truth).unwrap().source,
+        "--from/--to"
+    );
     std::fs::remove_file(&manifest).unwrap();
-    let all = window(&args(None)).unwrap();
+    let all = window(None, None, &truth).unwrap();
     assert!(all.source.starts_with("all frames"), "{all:?}");
-    assert!(report(&args(None)).unwrap().overall.settled.frames > scored.frames);
+    assert!(
+        report(&estimates, &truth, &window(None, None, &truth).unwrap())
+            .unwrap()
+            .overall
+            .settled
+            .frames
+            > scored.frames
+    );
 }
 
 #[test]

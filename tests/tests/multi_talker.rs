@@ -4,8 +4,8 @@
 
 use cma_core::{LocatorConfig, ReferenceTable};
 use cma_tests::{host_sim, path_in};
-use host_sim::multi_talker_eval::{evaluate, Metrics, TalkerTruth, TRACKS_HEADER};
-use host_sim::wav_io::InputLayout;
+use host_sim::evaluation::multi_talker_eval::{evaluate, Metrics, TalkerTruth, TRACKS_HEADER};
+use host_sim::io::wav_io::InputLayout;
 use std::path::Path;
 
 const SPEECH: [&str; 2] = [

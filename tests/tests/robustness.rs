@@ -262,7 +262,7 @@ mod files {
 
     /// `calibrate` reads its recordings with `read_four_channels`.
     fn host_sim_read_four(p: &str) -> String {
-        host_sim::wav_io::read_four_channels(Path::new(p), "four")
+        host_sim::io::wav_io::read_four_channels(Path::new(p), "four")
             .unwrap_err()
             .to_string()
     }
@@ -357,7 +357,7 @@ mod files {
             "\u{feff}file,set,score_from_s,score_to_s,note\ns.wav,x,0.3,1,\n",
         )
         .unwrap();
-        let rows = host_sim::locate::read_csv(&est).unwrap();
+        let rows = host_sim::localization::frame_estimates::read_csv(&est).unwrap();
         assert_eq!(rows.len(), reference.lines().count() - 1);
         host_sim(&[
             "score",

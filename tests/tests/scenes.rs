@@ -118,11 +118,11 @@ fn a_circling_talker_is_followed_without_lag() {
         ],
     );
     let rows = locate(&wav, &[]);
-    let track = host_sim::ground_truth::Track::read(&wav.with_extension("pos.csv")).unwrap();
+    let track = host_sim::io::ground_truth::Track::read(&wav.with_extension("pos.csv")).unwrap();
     let errs: Vec<f64> = rows
         .iter()
         .filter(|r| r.t_s > 2.0 && r.t_s < 8.0)
-        .map(|r| host_sim::ground_truth::wrap180(r.azimuth_deg - track.azimuth_at(r.t_s)))
+        .map(|r| host_sim::io::ground_truth::wrap180(r.azimuth_deg - track.azimuth_at(r.t_s)))
         .collect();
     let bias = errs.iter().sum::<f64>() / errs.len() as f64;
     assert!(bias.abs() < 5.0, "mean error (lag) {bias}°");
@@ -210,11 +210,11 @@ fn eval_scores_a_generated_folder() {
             ],
         );
     }
-    let (report, scenes) = host_sim::eval::evaluate(
+    let (report, scenes) = host_sim::evaluation::eval::evaluate(
         dir.path(),
         cma_core::LocatorConfig::default(),
         cma_core::ReferenceTable::ideal_5deg(),
-        host_sim::wav_io::InputLayout::Cma1,
+        host_sim::io::wav_io::InputLayout::Cma1,
         2,
         &|_| {},
     )

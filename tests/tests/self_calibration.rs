@@ -5,8 +5,8 @@
 //! `--selfcal-in`. Thresholds are the values measured when the test was written, with margin.
 
 use cma_tests::{host_sim, locate, make_scene, path_in};
-use host_sim::ground_truth::wrap180;
-use host_sim::locate::CsvEstimate;
+use host_sim::io::ground_truth::wrap180;
+use host_sim::localization::frame_estimates::CsvEstimate;
 use std::path::Path;
 
 /// The talker's places: (start s, azimuth °).
@@ -124,7 +124,7 @@ fn the_estimate_matches_the_capsules_and_restores() {
     let bad = scene(dir.path(), "imperfect.wav", true);
     let saved = path_in(dir.path(), "array.selfcal");
     locate(&bad, &["--selfcal-out", saved.as_str(), "-q"]);
-    let est = host_sim::selfcal_file::read(Path::new(&saved)).unwrap();
+    let est = host_sim::io::selfcal_file::read(Path::new(&saved)).unwrap();
     let gains: Vec<f32> = GAINS.split(',').map(|v| v.parse().unwrap()).collect();
     let betas: Vec<f32> = BETAS.split(',').map(|v| v.parse().unwrap()).collect();
     // The estimate reports gains relative to their mean and patterns about a mean of ½ (a common

@@ -1,5 +1,5 @@
-//! The array-board firmware on the STM32F446RE board: the same application (`../app.rs`) on a
-//! NUCLEO-F446RE with one 4-channel TDM ADC on SAI1 (`../boards/f446.rs`), frame lines on the
+//! The array-board firmware on the STM32F446RE board: the same application ([`cma_firmware::app`])
+//! on a NUCLEO-F446RE with one 4-channel TDM ADC on SAI1 (`src/boards/f446.rs`), frame lines on the
 //! ST-LINK virtual COM port (USART2).
 //!
 //! ```text
@@ -10,15 +10,12 @@
 //! On the host this binary is an empty stub so that workspace-wide commands keep working.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+/// Starts the application on embassy's thread-mode executor (sleeps with `WFE`).
 #[cfg(target_os = "none")]
-#[path = "../app.rs"]
-mod app;
-#[cfg(target_os = "none")]
-#[path = "../boards/f446.rs"]
-mod board;
-#[cfg(target_os = "none")]
-#[path = "../runtime.rs"]
-mod runtime;
+#[embassy_executor::main]
+async fn main(spawner: embassy_executor::Spawner) {
+    cma_firmware::app::run(spawner).await;
+}
 
 #[cfg(not(target_os = "none"))]
 fn main() {

@@ -15,19 +15,19 @@
 //!
 //! DMA: SPI2_RX on DMA1 stream 3, SPI3_RX on DMA1 stream 0, USART1_TX on DMA2 stream 7.
 //!
-//! [`F411`] is the board contract ([`cma_firmware::board_api::Board`]) for the application
+//! [`F411`] is the board contract ([`crate::board_api::Board`]) for the application
 //! (`src/app.rs`), like `boards/f446.rs` and `boards/mps2.rs`: an [`AudioIn`] ([`SampleSource`],
-//! the capture of [`cma_firmware::i2s_capture`]), a [`FrameTx`], a [`Watchdog`] and the estimate
+//! the capture of [`crate::i2s_capture`]), a [`FrameTx`], a [`Watchdog`] and the estimate
 //! store's flash.
 
-use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, Overrun, Parts, SampleSource};
-use cma_firmware::clock_plan::{I2sClockPlan, F411_I2S};
-use cma_firmware::i2s_capture::{
+use crate::board_api::{self, Overrun, Parts, SampleSource};
+use crate::clock_plan::{I2sClockPlan, F411_I2S};
+use crate::i2s_capture::{
     I2sCapture, I2sHardware, ReadError, Receiver, RingError, SpiStatus, BLOCK_WORDS,
 };
-use cma_firmware::restart_mask::RestartMask;
-use cma_firmware::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
+use crate::restart_mask::RestartMask;
+use crate::sample::{interleave_stereo_pairs, WORDS_PER_STEREO_FRAME};
+use cma_core::CHANNELS;
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::i2s::{self, I2S};
 use embassy_stm32::time::Hertz;
@@ -37,27 +37,17 @@ use embassy_time::{with_timeout, Duration, Timer};
 use static_cell::ConstStaticCell;
 
 /// Input sample rate, Hz (the ADCs' LRCK; nominal: the clock plan gives 15 997 Hz).
-pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
+pub use crate::board_api::SAMPLE_RATE_HZ;
 
-#[path = "stm32_drivers.rs"]
-mod stm32_drivers;
-use cma_firmware::board_api::ERASE_WATCHDOG_TIMEOUT_US;
+use super::stm32_drivers;
+use crate::board_api::ERASE_WATCHDOG_TIMEOUT_US;
 pub use stm32_drivers::{FrameTx, Watchdog};
 
-/// UART baud rate of the frame stream.
-pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
-pub use cma_firmware::board_api::BLOCK_FRAMES;
-/// Sample frames held by each DMA ring buffer (8 ms at 16 kHz): the longest the DSP task may lag
-/// behind before an overrun.
-pub const RING_FRAMES: usize = cma_firmware::i2s_capture::RING_FRAMES;
-/// Halfwords of each DMA ring buffer.
+pub use crate::board_api::BLOCK_FRAMES;
+use crate::board_api::{RING_FRAMES, UART_BAUD, WATCHDOG_TIMEOUT_US};
+/// Halfwords of each DMA ring buffer (one per ADC, [`RING_FRAMES`] sample frames each).
 const RING_WORDS: usize = RING_FRAMES * WORDS_PER_STEREO_FRAME;
-/// Watchdog timeout while the application runs, µs. The DSP task pets it after every block
-/// delivered, so a stalled capture, a capture that fails block after block, or a hung task resets
-/// the chip. From reset until then (start-up, the estimate store's erase at boot) the watchdog
-/// runs with [`ERASE_WATCHDOG_TIMEOUT_US`].
-pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
 
 /// SYSCLK, Hz (the clock plan below).
 const SYSCLK_HZ: u32 = 100_000_000;
@@ -304,7 +294,7 @@ impl SampleSource<BLOCK_FRAMES> for AudioIn {
     /// On a lapped ring, a receiver's OVR or FRE, a stopped stream or a stream whose channel side
     /// does not match its position, both receivers are restarted in step through the registers
     /// ([`I2sCapture::read_block`]) and [`Overrun`] is returned; `out` is then not written. When
-    /// the restart fails [`cma_firmware::i2s_capture::RESYNC_ATTEMPTS`] times in a row, the
+    /// the restart fails [`crate::i2s_capture::RESYNC_ATTEMPTS`] times in a row, the
     /// firmware panics (and the watchdog resets the chip).
     ///
     /// After the start and every restart, the ADCs' transient (zeros, then the fade-in) comes as
@@ -350,11 +340,8 @@ impl board_api::Board for F411 {
 
 /// The flash driver of the estimate store (offsets from the start of flash).
 pub type EstimateFlash = Flash<'static, Blocking>;
-/// Offset of the estimate store in flash: sectors 6 and 7 (0x0804_0000), which `memory.x` keeps
-/// out of the image.
-pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
-/// Bytes of the estimate store: two 128 KB sectors, one half each (910 records a half).
-pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
+/// The estimate store: sectors 6 and 7 of the flash, which `memory.x` keeps out of the image.
+pub use super::stm32_drivers::{ESTIMATE_STORE_LEN, ESTIMATE_STORE_OFFSET};
 
 /// Starts the watchdog, then configures clocks and peripherals.
 fn init() -> Parts<F411> {

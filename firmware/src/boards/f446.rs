@@ -12,7 +12,7 @@
 //! ADC: inputs IN1–IN4 = omni, cardioid 0°, 120°, 240° (differential microphone inputs, MICBIAS
 //! for the capsules), ADDR0 = ADDR1 = GND (I2C address 0x4C), AVDD = IOVDD = 3.3 V, AREG from its
 //! internal regulator. It is the TDM bus slave: its PLL runs from BCLK (no MCLK wire); slots 0–3
-//! carry inputs 1–4 ([`cma_firmware::tdm::SLOT_CHANNEL`]).
+//! carry inputs 1–4 ([`crate::tdm::SLOT_CHANNEL`]).
 //!
 //! SAI1 block B is the TDM master receiver: 4 slots of 32 bits (128 bit clocks per frame), frame
 //! sync a one-bit pulse one bit before slot 0 (the ADC's `TX_OFFSET` = 1), data sampled on the
@@ -23,15 +23,15 @@
 //! DMA: SAI1_B on DMA2 stream 5 (channel 0), circular, one 32-bit word per slot; USART2_TX on
 //! DMA1 stream 6.
 //!
-//! [`F446`] is the board contract ([`cma_firmware::board_api::Board`]) like `boards/f411.rs`
+//! [`F446`] is the board contract ([`crate::board_api::Board`]) like `boards/f411.rs`
 //! (STM32F411CE, two I2S ADCs) and `boards/mps2.rs` (QEMU): an [`AudioIn`] ([`SampleSource`]), a
 //! [`FrameTx`], a [`Watchdog`] and the estimate store's flash.
 
+use crate::board_api::{self, Overrun, Parts, SampleSource};
+use crate::clock_plan::F446_SAI;
+use crate::restart_mask::RestartMask;
+use crate::tdm::{self, TdmReceiver, SLOTS};
 use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, Overrun, Parts, SampleSource};
-use cma_firmware::clock_plan::F446_SAI;
-use cma_firmware::restart_mask::RestartMask;
-use cma_firmware::tdm::{self, TdmReceiver, SLOTS};
 use core::task::Poll;
 use embassy_stm32::flash::{self, Flash};
 use embassy_stm32::i2c::{self, I2c};
@@ -42,23 +42,13 @@ use embassy_stm32::usart::{self, UartTx};
 use embassy_stm32::{bind_interrupts, dma, pac, peripherals, rcc, Config};
 use static_cell::ConstStaticCell;
 
-#[path = "stm32_drivers.rs"]
-mod stm32_drivers;
-use cma_firmware::board_api::ERASE_WATCHDOG_TIMEOUT_US;
+use super::stm32_drivers;
+use crate::board_api::ERASE_WATCHDOG_TIMEOUT_US;
 pub use stm32_drivers::{FrameTx, Watchdog};
 
-/// UART baud rate of the frame stream.
-pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
-pub use cma_firmware::board_api::BLOCK_FRAMES;
-/// Sample frames held by the DMA ring (8 ms at 16 kHz): the longest the DSP task may lag behind
-/// before an overrun.
-pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
-/// Watchdog timeout while the application runs, µs. The DSP task pets it after every block
-/// delivered, so a stalled capture, a capture that fails block after block, or a hung task resets
-/// the chip. From reset until then (start-up, the estimate store's erase at boot) the watchdog
-/// runs with [`ERASE_WATCHDOG_TIMEOUT_US`].
-pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+pub use crate::board_api::BLOCK_FRAMES;
+use crate::board_api::{RING_FRAMES, UART_BAUD, WATCHDOG_TIMEOUT_US};
 
 const BLOCK_WORDS: usize = BLOCK_FRAMES * SLOTS;
 const RING_WORDS: usize = RING_FRAMES * SLOTS;
@@ -296,11 +286,8 @@ impl board_api::Board for F446 {
 
 /// The flash driver of the estimate store (offsets from the start of flash).
 pub type EstimateFlash = Flash<'static, flash::Blocking>;
-/// Offset of the estimate store in flash: sectors 6 and 7 (0x0804_0000), which `memory-f446.x`
-/// keeps out of the image.
-pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
-/// Bytes of the estimate store: two 128 KB sectors, one half each (910 records a half).
-pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
+/// The estimate store: sectors 6 and 7 of the flash, which `memory-f446.x` keeps out of the image.
+pub use super::stm32_drivers::{ESTIMATE_STORE_LEN, ESTIMATE_STORE_OFFSET};
 
 /// The TLV320ADC5140's I2C address (ADDR0 = ADDR1 = GND).
 const ADC_ADDRESS: u8 = 0x4C;

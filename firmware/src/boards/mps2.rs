@@ -26,17 +26,17 @@
 //! another length or with other content is refused), which then keeps the self-calibration's estimate from run to run as
 //! flash keeps it on the STM32 boards.
 //! Faults are selected by the word at [`FAULT_ADDR`] and reported on QEMU's stdout
-//! ([`cma_firmware::emulated`]).
+//! ([`crate::emulated`]).
 #![allow(unsafe_code)] // MMIO registers and semihosting calls, each with a `Note(unsafe)`
 
-use cma_core::capsule_estimate_record::{MAGIC, RECORD_LEN};
-use cma_core::CHANNELS;
-use cma_firmware::board_api::{self, FrameWriter, Overrun, Parts, SampleSource, WriteError};
-use cma_firmware::emulated::{
+use crate::board_api::{self, FrameWriter, Overrun, Parts, SampleSource, WriteError};
+use crate::emulated::{
     frames_after_us, us_for_frames, Fault, CAPTURE_STALL_US, DRAIN_US, FAULT_ADDR, FAULT_AT_FRAME,
     STATE_ADDR, UART_STALL_FROM_US, UART_STALL_US,
 };
-use cma_firmware::wav::{self, WavFormat};
+use crate::wav::{self, WavFormat};
+use cma_core::capsule_estimate_record::{MAGIC, RECORD_LEN};
+use cma_core::CHANNELS;
 use core::sync::atomic::{AtomicBool, Ordering};
 use cortex_m_semihosting::{debug, hprintln};
 use embassy_executor::{raw, Spawner};
@@ -46,16 +46,13 @@ use embedded_storage::nor_flash::{
 };
 use static_cell::StaticCell;
 
-/// Input sample rate, Hz (the WAV must have it).
-pub use cma_firmware::board_api::SAMPLE_RATE_HZ;
-/// UART baud rate of the frame stream (the transmitter is paced at it).
-pub const UART_BAUD: u32 = 115_200;
 /// Sample frames per DSP block (2 ms at 16 kHz), as on every board.
-pub use cma_firmware::board_api::BLOCK_FRAMES;
-/// Sample frames the emulated DMA ring holds, as on the STM32F411CE board (`boards/f411.rs`).
-pub const RING_FRAMES: usize = 4 * BLOCK_FRAMES;
-/// Watchdog timeout, µs, as on the STM32F411CE board.
-pub const WATCHDOG_TIMEOUT_US: u32 = 250_000;
+pub use crate::board_api::BLOCK_FRAMES;
+/// Input sample rate, Hz (the WAV must have it).
+pub use crate::board_api::SAMPLE_RATE_HZ;
+// The frame stream's baud rate (the transmitter is paced at it), the emulated DMA ring and the
+// watchdog timeout: those of every board.
+use crate::board_api::{RING_FRAMES, UART_BAUD, WATCHDOG_TIMEOUT_US};
 
 /// Set by the executor's pender (a task was woken), cleared by [`run_executor`] before it sleeps.
 static PENDED: AtomicBool = AtomicBool::new(false);
@@ -358,7 +355,7 @@ fn fault_word() -> u32 {
 /// Offset of the estimate store in [`EstimateFlash`].
 pub const ESTIMATE_STORE_OFFSET: u32 = 0;
 /// Bytes of the emulated estimate store: two halves of one 8 KB erase unit each (56 records a
-/// half; [`cma_firmware::estimate_store`]).
+/// half; [`crate::estimate_store`]).
 pub const ESTIMATE_STORE_LEN: u32 = 16 * 1024;
 
 /// The estimate store's flash: a host file of [`ESTIMATE_STORE_LEN`] bytes named by the third

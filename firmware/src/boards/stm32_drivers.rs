@@ -1,14 +1,22 @@
 //! Drivers the STM32 boards share (`boards/f411.rs`, STM32F411CE; `boards/f446.rs`, STM32F446RE): the
-//! frame-stream UART and the independent watchdog, over embassy-stm32.
+//! frame-stream UART and the independent watchdog, over embassy-stm32, and the place of the
+//! estimate store in their flash.
 
-use cma_firmware::board_api::{self, FrameWriter, WriteError};
-use cma_firmware::clock_plan::iwdg_setting;
+use crate::board_api::{self, FrameWriter, WriteError};
+use crate::clock_plan::iwdg_setting;
 use embassy_stm32::mode::Async;
 use embassy_stm32::pac;
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use embassy_stm32::peripherals;
 use embassy_stm32::usart::UartTx;
 use embassy_stm32::Peri;
+
+/// Offset of the estimate store in the flash of both STM32 boards (512 KB each, the same sector
+/// layout): sectors 6 and 7 (0x0804_0000), which their memory layouts (`memory.x`,
+/// `memory-f446.x`) keep out of the image.
+pub const ESTIMATE_STORE_OFFSET: u32 = 0x4_0000;
+/// Bytes of the estimate store: two 128 KB sectors, one half each (910 records a half).
+pub const ESTIMATE_STORE_LEN: u32 = 0x4_0000;
 
 /// The frame-stream UART (transmit only, DMA).
 pub struct FrameTx {

@@ -10,7 +10,7 @@
 //!
 //! The omni-noise rows describe a 3-D isotropic diffuse field (D_m uncorrelated with W,
 //! E|D_m|² = κ·E|W|², κ = [`KAPPA`] = ⅓), with the definitions of the sweep calibration
-//! ([`crate::calibrate`]) and of the core's ideal table:
+//! ([`crate::calibration::measured_table`]) and of the core's ideal table:
 //!
 //! * active: Re E[X_m·W*]/E|W|² = a_m;
 //! * magnitude: the mean gain |E X_m|/|E W| over the field's directions (the dipole part averages
@@ -22,7 +22,7 @@
 //! is √(a² + ½b²); the other rows agree.
 
 use crate::error::Result;
-use crate::table_io::OwnedTable;
+use crate::io::table_io::OwnedTable;
 use cma_core::capsule_calibration::{band_of_frequency, CapsuleEstimate, KAPPA};
 use cma_core::reference_table::Feature;
 use cma_core::{CARDIOIDS, CARDIOID_LOOK_DEG};
@@ -73,7 +73,7 @@ pub fn table_from_estimate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibrate::{freq_rows, CalibrationOptions};
+    use crate::calibration::measured_table::{freq_rows, CalibrationOptions};
     use cma_core::capsule_calibration::{BandModel, CAL_BANDS};
     use cma_core::features::FeatureKind;
     use cma_core::ReferenceTable;

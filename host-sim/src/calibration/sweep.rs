@@ -292,7 +292,7 @@ impl Deconvolver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::signal::convolve;
+    use crate::simulation::signal::convolve;
 
     #[test]
     fn sweep_follows_eq_2_43() {
@@ -361,7 +361,7 @@ mod tests {
             let bytes = std::fs::read(&path).unwrap();
             let riff = u32::from_le_bytes(bytes[4..8].try_into().unwrap()) as usize;
             assert_eq!(riff + 8, bytes.len());
-            let (rate, x) = crate::wav_io::read_mono(&path).unwrap();
+            let (rate, x) = crate::io::wav_io::read_mono(&path).unwrap();
             assert_eq!((rate, x.len()), (16_000, samples));
         }
     }

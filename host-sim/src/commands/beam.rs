@@ -1,11 +1,11 @@
 //! `host-sim beam`: the self-steered beamformer (thesis §3.3, appendix A `result.sig` /
 //! `result.sigb`) on a WAV file.
 
-use crate::beam::{self, Steer};
-use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
-use crate::ground_truth::Track;
-use crate::wav_io::{self, InputLayout};
+use crate::flags::config_args::ConfigArgs;
+use crate::io::ground_truth::Track;
+use crate::io::wav_io::{self, InputLayout};
+use crate::localization::beam::{self, Steer};
 use cma_core::beamformer::{BeamConfig, OmniSource};
 use std::path::PathBuf;
 

@@ -1,16 +1,16 @@
-//! `host-sim calibrate`: argument parsing, file reading and the table plot of the calibration. The
-//! computation is in [`crate::calibrate`] (from sweeps) and [`crate::selfcal_table`] (from a
-//! self-calibration estimate, `--selfcal-in`).
+//! `host-sim calibrate`: argument parsing and the reading of the recordings and the sweep. The
+//! table is computed by [`crate::calibration::measured_table`] (from sweeps) or
+//! [`crate::calibration::selfcal_table`] (from a self-calibration estimate, `--selfcal-in`) and
+//! drawn by [`crate::calibration::table_plot`].
 
-use crate::calibrate::{self, CalibrationOptions, Measurement};
+use crate::calibration::measured_table::{self, CalibrationOptions, Measurement};
+use crate::calibration::selfcal_table;
+use crate::calibration::sweep::SweepSpec;
 use crate::error::{Result, SimError};
-use crate::sweep::SweepSpec;
-use crate::table_io::OwnedTable;
-use crate::wav_io::{read_four_channels, read_mono};
-use crate::{selfcal_file, selfcal_table};
-use cma_core::{ReferenceTable, CARDIOID_LOOK_DEG};
-use plotters::element::DashedPathElement;
-use plotters::prelude::*;
+use crate::io::selfcal_file;
+use crate::io::table_io::OwnedTable;
+use crate::io::wav_io::{read_four_channels, read_mono};
+use cma_core::ReferenceTable;
 use std::path::{Path, PathBuf};
 
 /// `host-sim calibrate`.
@@ -227,7 +227,7 @@ pub fn resolve_sweep(a: &CalibrateArgs) -> Result<(Vec<f64>, SweepSpec, Vec<Stri
     match &a.sweep {
         Some(path) => {
             let (rate, s) = read_mono(path)?;
-            let stored = crate::sweep::read_info_comment(path)?
+            let stored = crate::calibration::sweep::read_info_comment(path)?
                 .as_deref()
                 .and_then(SweepSpec::from_info_comment);
             let (f1, f2) = match (a.f1, a.f2, stored) {
@@ -275,7 +275,7 @@ pub fn resolve_sweep(a: &CalibrateArgs) -> Result<(Vec<f64>, SweepSpec, Vec<Stri
 
 /// The warning for a `--symmetry` calibration whose capsules disagree on mirrored azimuths, if any.
 #[must_use]
-pub fn symmetry_warning(check: &calibrate::SymmetryCheck) -> Option<String> {
+pub fn symmetry_warning(check: &measured_table::SymmetryCheck) -> Option<String> {
     let Some(worst) = check.worst_db() else {
         return Some(
             "warning: --symmetry could not check that the capsules are matched: record 0° and pairs of azimuths φ and 120° − φ (e.g. 15° and 105°), where cardioids 0° and 120° see the same relative angle".into(),
@@ -296,7 +296,7 @@ pub fn symmetry_warning(check: &calibrate::SymmetryCheck) -> Option<String> {
     }
     Some(format!(
         "warning: --symmetry assumes matched capsules, but they disagree by up to {worst:.2} dB (tolerance {:.1} dB) where they see the same relative angle ({}); the rotated thirds copy each capsule's error onto the others. Record the full circle instead",
-        calibrate::SYMMETRY_TOLERANCE_DB,
+        measured_table::SYMMETRY_TOLERANCE_DB,
         parts.join("; ")
     ))
 }
@@ -333,11 +333,11 @@ pub fn run(a: &CalibrateArgs) -> Result<()> {
         .iter()
         .map(|(az, p)| read_measurement(p, *az))
         .collect::<Result<Vec<_>>>()?;
-    let calibrate::Calibration {
+    let measured_table::Calibration {
         table,
         infos,
         symmetry,
-    } = calibrate::calibrate(&measurements, &sweep, &opts)?;
+    } = measured_table::calibrate(&measurements, &sweep, &opts)?;
     if let Some(w) = symmetry.as_ref().and_then(symmetry_warning) {
         eprintln!("{w}");
     }
@@ -366,16 +366,16 @@ fn report_table(a: &CalibrateArgs, table: &OwnedTable, source: &str) -> Result<(
         table.freqs_hz.len(),
         table.freqs_hz.first().copied().unwrap_or(0.0),
         table.freqs_hz.last().copied().unwrap_or(0.0),
-        calibrate::max_deviation_from_ideal(table)
+        measured_table::max_deviation_from_ideal(table)
     );
     if let Some(p) = &a.plot {
-        table_plot(p, table)?;
+        crate::calibration::table_plot::table_plot(p, table)?;
     }
     Ok(())
 }
 
 /// `calibrate --selfcal-in FILE`: the table of a saved self-calibration estimate
-/// ([`crate::selfcal_table`]), on the azimuth grid of the core's ideal table of `--grid`. Everything
+/// ([`crate::calibration::selfcal_table`]), on the azimuth grid of the core's ideal table of `--grid`. Everything
 /// is read and checked before the table is written (atomically).
 fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
     let grid = match a.grid.unwrap_or(5) {
@@ -387,7 +387,7 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
             )))
         }
     };
-    let freqs = calibrate::freq_rows(a.freq_lo, a.freq_hi, a.freq_step)?;
+    let freqs = measured_table::freq_rows(a.freq_lo, a.freq_hi, a.freq_step)?;
     let est = selfcal_file::read(path)?;
     let table = selfcal_table::table_from_estimate(&est, &freqs, grid.azimuths_deg())?;
     table.write(&a.out)?;
@@ -411,183 +411,10 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
     )
 }
 
-/// Draws a table: features vs azimuth per capsule at four frequency rows (near 300, 1000, 2000 and
-/// 3500 Hz): the magnitude features (solid, with the measured points), the active features (dashed),
-/// the ideal cardioid model (grey) and each capsule's look direction (dotted vertical line), every
-/// curve closed over the full circle; one legend above the panels, off the data. Written atomically.
-pub fn table_plot(path: &Path, t: &OwnedTable) -> Result<()> {
-    crate::plots::ensure_font()?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".partial.{name}"));
-    let result = draw_table(&tmp, t);
-    match result {
-        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| SimError::io(path, e)),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(e)
-        }
-    }
-}
-
-/// The points of one capsule's curve over the table's azimuths, closed: the first azimuth repeated
-/// at +360°.
-fn closed_curve(azimuths: &[f32], values: impl Fn(usize) -> f32) -> Vec<(f64, f64)> {
-    let mut pts: Vec<(f64, f64)> = azimuths
-        .iter()
-        .enumerate()
-        .map(|(qi, a)| (f64::from(*a), f64::from(values(qi))))
-        .collect();
-    if let Some(&(a, v)) = pts.first() {
-        pts.push((a + 360.0, v));
-    }
-    pts
-}
-
-fn draw_table(path: &Path, t: &OwnedTable) -> Result<()> {
-    let err = |e: &dyn std::fmt::Debug| {
-        SimError::Other(format!("{}: plotting failed: {e:?}", path.display()))
-    };
-    let table = t.as_table()?;
-    let q = t.azimuths_deg.len();
-    let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(
-            "calibrated reference table: features vs source azimuth, per cardioid",
-            ("sans-serif", 22),
-        )
-        .map_err(|e| err(&e))?;
-    let (legend, panels) = root.split_vertically(70);
-    let colors = [
-        RGBColor(200, 30, 30),
-        RGBColor(30, 140, 30),
-        RGBColor(30, 60, 200),
-    ];
-    let grey = RGBColor(160, 160, 160);
-    // The legend, above the panels: the capsules' colours, then the line styles.
-    let text = ("sans-serif", 16).into_font();
-    for (m, color) in colors.iter().enumerate() {
-        let x = 20 + 160 * m as i32;
-        legend
-            .draw(&PathElement::new(
-                [(x, 18), (x + 30, 18)],
-                color.stroke_width(2),
-            ))
-            .map_err(|e| err(&e))?;
-        legend
-            .draw(&Text::new(
-                format!("cardioid {:.0}°", CARDIOID_LOOK_DEG[m]),
-                (x + 38, 10),
-                text.clone(),
-            ))
-            .map_err(|e| err(&e))?;
-    }
-    let styles: [(&str, (i32, i32)); 4] = [
-        ("ideal cardioid ½ + ½·cos(φ − φ_c)", (520, 10)),
-        ("look direction φ_c", (900, 10)),
-        ("magnitude |H_c|/|H_0| (dots: measured azimuths)", (20, 40)),
-        ("active Re(H_c/H_0)", (520, 40)),
-    ];
-    for (k, (label, (x, y))) in styles.into_iter().enumerate() {
-        let (a, b) = ((x, y + 8), (x + 30, y + 8));
-        match k {
-            0 => legend.draw(&PathElement::new([a, b], grey.stroke_width(1))),
-            1 => legend.draw(&DashedPathElement::new(
-                [(x + 15, y), (x + 15, y + 16)],
-                2,
-                3,
-                BLACK.stroke_width(1),
-            )),
-            2 => legend.draw(&PathElement::new([a, b], BLACK.stroke_width(2))),
-            _ => legend.draw(&DashedPathElement::new([a, b], 6, 4, BLACK.stroke_width(1))),
-        }
-        .map_err(|e| err(&e))?;
-        legend
-            .draw(&Text::new(label, (x + 38, y), text.clone()))
-            .map_err(|e| err(&e))?;
-    }
-    for (area, f_want) in panels
-        .split_evenly((2, 2))
-        .iter()
-        .zip([300.0, 1000.0, 2000.0, 3500.0])
-    {
-        let fi = table.freq_index(f_want);
-        // The panel's range: its row's values and the ideal model's [0, 1].
-        let shown = t.features[fi * q..(fi + 1) * q]
-            .iter()
-            .chain(&t.active[fi * q..(fi + 1) * q])
-            .flatten();
-        let ymax = f64::from(shown.clone().fold(1.0f32, |m, v| m.max(*v))) + 0.05;
-        let ymin = f64::from(shown.fold(0.0f32, |m, v| m.min(*v))) - 0.05;
-        let mut chart = ChartBuilder::on(area)
-            .caption(format!("{:.0} Hz", t.freqs_hz[fi]), ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(40)
-            .build_cartesian_2d(0.0..360.0, ymin..ymax)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("azimuth (°)")
-            .y_desc("feature")
-            .x_labels(13)
-            .draw()
-            .map_err(|e| err(&e))?;
-        for (m, color) in colors.iter().enumerate() {
-            let look = f64::from(CARDIOID_LOOK_DEG[m]);
-            chart
-                .draw_series(LineSeries::new(
-                    (0..=360).map(|a| {
-                        let a = f64::from(a);
-                        (a, 0.5 + 0.5 * (a - look).to_radians().cos())
-                    }),
-                    grey.stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?;
-            // 0° is also 360°: its line at both edges.
-            let edges = if look == 0.0 {
-                vec![0.0, 360.0]
-            } else {
-                vec![look]
-            };
-            for x in edges {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        [(x, ymin), (x, ymax)],
-                        2,
-                        4,
-                        color.stroke_width(1),
-                    ))
-                    .map_err(|e| err(&e))?;
-            }
-            let base = fi * q;
-            let magnitude = closed_curve(&t.azimuths_deg, |qi| t.features[base + qi][m]);
-            let active = closed_curve(&t.azimuths_deg, |qi| t.active[base + qi][m]);
-            chart
-                .draw_series(DashedLineSeries::new(active, 6, 4, color.stroke_width(1)))
-                .map_err(|e| err(&e))?;
-            chart
-                .draw_series(LineSeries::new(magnitude.clone(), color.stroke_width(2)))
-                .map_err(|e| err(&e))?;
-            chart
-                .draw_series(
-                    magnitude[..q]
-                        .iter()
-                        .map(|p| Circle::new(*p, 2, color.filled())),
-                )
-                .map_err(|e| err(&e))?;
-        }
-    }
-    root.present().map_err(|e| err(&e))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wav_io::{write_wav, OutFormat};
+    use crate::io::wav_io::{write_wav, OutFormat};
 
     /// `d/sweep.wav`: a 0.5 s, 16 kHz sweep up to 7 kHz made by `host-sim sweep`.
     fn short_sweep(d: &Path) -> PathBuf {
@@ -652,7 +479,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         let (sweep, list) = sweep_and_recordings(d);
-        let text = crate::sweep::read_info_comment(&sweep).unwrap().unwrap();
+        let text = crate::calibration::sweep::read_info_comment(&sweep)
+            .unwrap()
+            .unwrap();
         assert_eq!(text, "cma-sweep f1=50 f2=7000 seconds=0.5 rate=16000");
         let out = d.join("t.cmat");
         let cal = list.parent().unwrap();
@@ -819,7 +648,7 @@ mod tests {
 
     #[test]
     fn symmetry_warning_says_by_how_much() {
-        let check = calibrate::SymmetryCheck {
+        let check = measured_table::SymmetryCheck {
             gain_1_over_0_db: Some(-2.04),
             pairs_0_1: 7,
             gain_2_over_1_db: Some(0.3),
@@ -829,30 +658,18 @@ mod tests {
             w.contains("2.04 dB") && w.contains("7 mirrored") && w.contains("+0.30 dB"),
             "{w}"
         );
-        let matched = calibrate::SymmetryCheck {
+        let matched = measured_table::SymmetryCheck {
             gain_1_over_0_db: Some(0.1),
             pairs_0_1: 7,
             gain_2_over_1_db: None,
         };
         assert_eq!(symmetry_warning(&matched), None);
-        let none = calibrate::SymmetryCheck {
+        let none = measured_table::SymmetryCheck {
             gain_1_over_0_db: None,
             pairs_0_1: 0,
             gain_2_over_1_db: None,
         };
         assert!(symmetry_warning(&none).unwrap().contains("could not check"));
-    }
-
-    /// The plot is written (legend, ideal curves, look directions, closed curves are drawn without
-    /// error, also with negative active features).
-    #[test]
-    fn table_plot_is_written() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("t.png");
-        let mut t = OwnedTable::from_table(&cma_core::ReferenceTable::ideal_15deg());
-        t.active[12][1] = -0.2;
-        table_plot(&path, &t).unwrap();
-        assert!(std::fs::metadata(&path).unwrap().len() > 10_000);
     }
 
     fn s(p: &Path) -> String {

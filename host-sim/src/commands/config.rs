@@ -3,9 +3,9 @@
 //! file `--config` reads and the firmware embeds (`CMA_CONFIG`). Reading it back gives the same
 //! configuration.
 
-use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
-use crate::{output_file, stdout_text};
+use crate::flags::config_args::ConfigArgs;
+use crate::io::{output_file, stdout_text};
 use std::path::PathBuf;
 
 /// `host-sim config`.

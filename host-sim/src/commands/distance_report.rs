@@ -22,11 +22,11 @@ pub struct DistanceReportArgs {
 /// Runs `host-sim distance-report`.
 pub fn run(a: &DistanceReportArgs) -> Result<()> {
     let snrs = [None, Some(20.0), Some(10.0), Some(0.0)];
-    let rows = crate::distance_eval::distance_report(
+    let rows = crate::evaluation::distance_eval::distance_report(
         &a.data,
         &snrs,
         (a.band_lo, a.band_hi),
         a.peaks.max(1),
     )?;
-    crate::stdout_text::print_text(&crate::distance_eval::format_report(&rows))
+    crate::io::stdout_text::print_text(&crate::evaluation::distance_eval::format_report(&rows))
 }

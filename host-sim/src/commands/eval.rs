@@ -1,10 +1,12 @@
 //! `host-sim eval`: the localizer on an evaluation folder, scored against ground truth.
 
 use super::progress_bar;
-use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
-use crate::wav_io::InputLayout;
-use crate::{arg_values, eval, plots, stdout_text};
+use crate::evaluation::{eval, plots};
+use crate::flags::arg_values;
+use crate::flags::config_args::ConfigArgs;
+use crate::io::stdout_text;
+use crate::io::wav_io::InputLayout;
 use std::path::PathBuf;
 
 /// `host-sim eval`.
@@ -33,8 +35,8 @@ pub struct EvalArgs {
 
 /// Runs `host-sim eval`.
 pub fn run(a: &EvalArgs) -> Result<()> {
-    if crate::multi_talker_eval::is_multi_talker_folder(&a.dir) {
-        return crate::multi_talker_eval::run(a);
+    if crate::evaluation::multi_talker_eval::is_multi_talker_folder(&a.dir) {
+        return crate::evaluation::multi_talker_eval::run(a);
     }
     let config = a.config.config()?;
     let measured = a.config.measured_table()?;

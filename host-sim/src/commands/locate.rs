@@ -1,12 +1,14 @@
-//! `host-sim locate`: one estimate per analysis frame of a recording, as CSV or JSON lines.
+//! `host-sim locate`: the flags, reading and output of the command that writes one estimate per
+//! analysis frame of a recording, as CSV or JSON lines; the estimates are
+//! [`crate::localization::frame_estimates`].
 
 use super::progress_bar;
-use crate::config_args::ConfigArgs;
 use crate::error::{Result, SimError};
-use crate::wav_io::InputLayout;
-use crate::{
-    estimate_output, locate, multi_talker_eval, output_file, selfcal_file, stdout_text, wav_io,
-};
+use crate::evaluation::multi_talker_eval;
+use crate::flags::config_args::ConfigArgs;
+use crate::io::wav_io::InputLayout;
+use crate::io::{estimate_output, output_file, selfcal_file, stdout_text, wav_io};
+use crate::localization::frame_estimates;
 use std::path::PathBuf;
 
 /// `host-sim locate`.
@@ -102,11 +104,16 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         selfcal_file::check_output(path)?;
     }
     let mut sample_frames = 0usize;
-    let located =
-        locate::locate_stream_calibrated(&mut stream, config, table, start.as_ref(), |n| {
+    let located = frame_estimates::locate_stream_calibrated(
+        &mut stream,
+        config,
+        table,
+        start.as_ref(),
+        |n| {
             sample_frames += n;
             pb.inc(n as u64);
-        })?;
+        },
+    )?;
     pb.finish_and_clear();
     let rows = located.rows;
     let audio_s = sample_frames as f64 / f64::from(rate);
@@ -134,7 +141,7 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         ));
     }
     let write = |out: &mut dyn std::io::Write| match a.format {
-        estimate_output::Format::Csv => locate::write_csv(out, &rows),
+        estimate_output::Format::Csv => frame_estimates::write_csv(out, &rows),
         estimate_output::Format::Jsonl => estimate_output::write_jsonl(out, &rows),
     };
     match csv {

@@ -10,7 +10,7 @@ pub struct OptionsEvalArgs {
     /// Folder with manifest.csv.
     pub dir: PathBuf,
     /// Worker threads (default: all cores).
-    #[arg(long, value_parser = crate::arg_values::threads)]
+    #[arg(long, value_parser = crate::flags::arg_values::threads)]
     pub threads: Option<usize>,
     /// Flags applied to every variant (as on the `eval` command line), e.g. `--preset thesis`.
     #[arg(long, allow_hyphen_values = true)]
@@ -29,5 +29,5 @@ pub fn run(a: &OptionsEvalArgs) -> Result<()> {
         .split_whitespace()
         .map(String::from)
         .collect();
-    crate::options_eval::options_table(&a.dir, &base, threads, std::io::stdout().lock())
+    crate::evaluation::options_eval::options_table(&a.dir, &base, threads, std::io::stdout().lock())
 }

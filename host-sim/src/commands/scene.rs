@@ -1,8 +1,9 @@
 //! `host-sim scene`: synthesises a CMA1 scene (WAV + `.pos.csv`).
 
 use crate::error::{Result, SimError};
-use crate::wav_io::OutFormat;
-use crate::{arg_values, array_model, noise_source, room, scene, signal};
+use crate::flags::arg_values;
+use crate::io::wav_io::OutFormat;
+use crate::simulation::{array_model, noise_source, room, scene, signal};
 use std::path::PathBuf;
 
 /// `host-sim scene`.
@@ -84,7 +85,7 @@ pub struct SceneArgs {
     pub array: array_model::ArrayArgs,
     /// Several talkers.
     #[command(flatten)]
-    pub multi: crate::multi_talker_scene::MultiTalkerArgs,
+    pub multi: crate::simulation::multi_talker_scene::MultiTalkerArgs,
 }
 
 /// Runs `host-sim scene`.
@@ -94,10 +95,10 @@ pub fn run(a: &SceneArgs) -> Result<()> {
         source,
     })?;
     if let Some(path) = &a.source {
-        crate::wav_io::check_mono(path, "--source")?;
+        crate::io::wav_io::check_mono(path, "--source")?;
     }
     if let Some(n) = a.multi.talkers {
-        return crate::multi_talker_scene::run(a, n);
+        return crate::simulation::multi_talker_scene::run(a, n);
     }
     let source = scene::load_source(a.source.as_deref(), a.synth, a.rate, a.seed)?;
     let motion = match (a.azimuth, &a.track, a.rotate) {
@@ -195,7 +196,7 @@ pub(crate) fn write_noise_truth(
         text.push('\n');
     }
     let path = out.with_extension("noise.csv");
-    crate::wav_io::write_atomically(&path, |tmp| {
+    crate::io::wav_io::write_atomically(&path, |tmp| {
         std::fs::write(tmp, &text).map_err(|e| SimError::io(tmp, e))
     })
 }

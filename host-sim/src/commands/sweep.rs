@@ -1,8 +1,8 @@
 //! `host-sim sweep`: the exponential sine sweep (thesis eq. 2.43) to play for a calibration.
 
+use crate::calibration::sweep::SweepSpec;
 use crate::error::{Result, SimError};
-use crate::sweep::SweepSpec;
-use crate::wav_io::{write_wav_with_comment, OutFormat};
+use crate::io::wav_io::{write_wav_with_comment, OutFormat};
 use std::path::PathBuf;
 
 /// Sweep parameters on the command line.

@@ -7,7 +7,7 @@
 //! The azimuth is given (the truth), as eq. 5.15 assumes a known direction.
 
 use crate::error::Result;
-use crate::scene::{self, Motion, SceneSpec};
+use crate::simulation::scene::{self, Motion, SceneSpec};
 use cma_core::distance::{accumulate_scores, best_distance, REFERENCE_DISTANCES_M};
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
@@ -145,7 +145,7 @@ pub fn distance_report(
                         seed: 11 + si as u64,
                         array: Default::default(),
                         noise_sources: Vec::new(),
-                        source_room: crate::noise_source::SourceRoom::Free,
+                        source_room: crate::simulation::noise_source::SourceRoom::Free,
                     };
                     let p = scene::synthesize_parts(&spec, Some(r as f64));
                     let mix: Vec<[f32; 4]> = p
@@ -218,7 +218,7 @@ mod tests {
                 seed: 1,
                 array: Default::default(),
                 noise_sources: Vec::new(),
-                source_room: crate::noise_source::SourceRoom::Free,
+                source_room: crate::simulation::noise_source::SourceRoom::Free,
             };
             let p = scene::synthesize_parts(&spec, Some(*r as f64));
             let (_, total) = analyse(&p.talker, rate, 40.0, (80.0, 500.0), 5);

@@ -4,11 +4,11 @@
 //! followed.
 
 use crate::error::{Result, SimError};
-use crate::ground_truth::{wrap180, Track};
-use crate::locate::{locate, Row};
-use crate::manifest::{self, Entry};
-use crate::metrics::Metrics;
-use crate::wav_io::{read_recording, InputLayout};
+use crate::evaluation::metrics::Metrics;
+use crate::io::ground_truth::{wrap180, Track};
+use crate::io::manifest::{self, Entry};
+use crate::io::wav_io::{read_recording, InputLayout};
+use crate::localization::frame_estimates::{locate, Row};
 use cma_core::{LocatorConfig, ReferenceTable};
 use serde::Serialize;
 use std::path::Path;

@@ -1,5 +1,5 @@
-//! Scoring estimates against ground truth: the evaluation of a folder, its metrics and plots, and the
-//! reports of the thesis options.
+//! Scoring estimates against ground truth: the evaluation of a folder, its metrics and plots, the
+//! score of a recorded estimate CSV, and the reports of the thesis options.
 
 pub mod distance_eval;
 pub mod eval;
@@ -7,3 +7,4 @@ pub mod metrics;
 pub mod multi_talker_eval;
 pub mod options_eval;
 pub mod plots;
+pub mod recorded_score;

@@ -3,8 +3,8 @@
 //! folder, as a Markdown table (`docs/options.md`).
 
 use crate::error::{Result, SimError};
-use crate::eval;
-use crate::wav_io::InputLayout;
+use crate::evaluation::eval;
+use crate::io::wav_io::InputLayout;
 use cma_core::cartesian_filter::Smoothing;
 use cma_core::combination::{Combination, FdivSpread};
 use cma_core::frame_quality::QualityMeasures;
@@ -39,16 +39,16 @@ pub struct OptionArgs {
     #[arg(long)]
     pub quality: Option<String>,
     /// Scale P_max of the frame-power measure (full scale = 1).
-    #[arg(long, value_parser = crate::arg_values::positive)]
+    #[arg(long, value_parser = crate::flags::arg_values::positive)]
     pub power_max: Option<f32>,
     /// Scale of the peak-frequency-power measure (|X|² of the unnormalised 512-point FFT).
-    #[arg(long, value_parser = crate::arg_values::positive)]
+    #[arg(long, value_parser = crate::flags::arg_values::positive)]
     pub peak_power_max: Option<f32>,
     /// ZCR voice-activity threshold, crossings per second.
-    #[arg(long, value_parser = crate::arg_values::finite)]
+    #[arg(long, value_parser = crate::flags::arg_values::finite)]
     pub zcr_threshold: Option<f32>,
     /// Binary threshold b_TH on b (eq. 5.27–5.29; 0 = off).
-    #[arg(long, value_parser = crate::arg_values::finite)]
+    #[arg(long, value_parser = crate::flags::arg_values::finite)]
     pub binary_threshold: Option<f32>,
     /// Peak combination rule.
     #[arg(long, value_enum)]
@@ -57,7 +57,7 @@ pub struct OptionArgs {
     #[arg(long, value_enum)]
     pub smoothing: Option<SmoothingArg>,
     /// FDIV: reliability from the circular std over bins, scale s_max in degrees (0 = off).
-    #[arg(long, value_parser = crate::arg_values::finite)]
+    #[arg(long, value_parser = crate::flags::arg_values::finite)]
     pub fdiv_std: Option<f32>,
     /// FDIV: make the circular-std reliability binary (b = 1 when s ≤ s_max).
     #[arg(long)]
@@ -204,7 +204,7 @@ pub fn options_table(
             _ => cma_core::ReferenceTable::ideal_5deg(),
         };
         let (report, _) = eval::evaluate(dir, config, table, InputLayout::Cma1, threads, &|_| {})?;
-        let cell = |m: &crate::metrics::Metrics| {
+        let cell = |m: &crate::evaluation::metrics::Metrics| {
             format!("{:.1} / {:.1} / {:.2}", m.acc[4], m.acc[9], m.mae)
         };
         let set = |name: &str| report.sets.iter().find(|s| s.set == name);

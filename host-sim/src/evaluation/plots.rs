@@ -2,8 +2,8 @@
 //! and the talker tracks vs each talker's truth per multi-talker scene.
 
 use crate::error::{Result, SimError};
-use crate::eval::{Report, SceneResult};
-use crate::multi_talker_eval::{TalkerTruth, TrackFrame};
+use crate::evaluation::eval::{Report, SceneResult};
+use crate::evaluation::multi_talker_eval::{TalkerTruth, TrackFrame};
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
@@ -124,8 +124,9 @@ pub fn track_plot(path: &Path, scene: &SceneResult) -> Result<()> {
         ),
     ];
     draw_legend(&legend, &entries, 240).map_err(draw_err(path))?;
-    let no_history =
-        |r: &crate::locate::Row| r.estimate.flags.contains(cma_core::Flags::NO_HISTORY);
+    let no_history = |r: &crate::localization::frame_estimates::Row| {
+        r.estimate.flags.contains(cma_core::Flags::NO_HISTORY)
+    };
     let mut chart = ChartBuilder::on(&top)
         .margin(10)
         .x_label_area_size(25)

@@ -147,13 +147,13 @@ pub struct ConfigArgs {
     #[arg(long, help_heading = "Configuration")]
     pub table: Option<std::path::PathBuf>,
     /// Number of spectral peaks N_p.
-    #[arg(long, value_parser = crate::arg_values::peaks, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::flags::arg_values::peaks, help_heading = "Analysis: peaks and features")]
     pub peaks: Option<usize>,
     /// Analysis band lower edge, Hz.
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub band_lo: Option<f32>,
     /// Analysis band upper edge, Hz.
-    #[arg(long, value_parser = crate::arg_values::positive, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::flags::arg_values::positive, help_heading = "Analysis: peaks and features")]
     pub band_hi: Option<f32>,
     /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
     #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
@@ -166,7 +166,7 @@ pub struct ConfigArgs {
     )]
     pub kernel: Option<KernelArg>,
     /// Scale k of a distance kernel (1 − k·d^p); the preset's, or 1.5, when unset.
-    #[arg(long, value_parser = crate::arg_values::positive, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::flags::arg_values::positive, help_heading = "Similarity: measure, kernel, noisy references")]
     pub kernel_scale: Option<f32>,
     /// Noisy reference features: mixing rule.
     #[arg(
@@ -176,13 +176,13 @@ pub struct ConfigArgs {
     )]
     pub noise: Option<NoiseArg>,
     /// Lowest SNR of the noisy reference sets, dB.
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_from: Option<f32>,
     /// Highest SNR of the noisy reference sets, dB.
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_to: Option<f32>,
     /// SNR step between the noisy reference sets, dB.
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Similarity: measure, kernel, noisy references")]
     pub snr_step: Option<f32>,
     /// Mean-free features.
     #[arg(long, help_heading = "Analysis: peaks and features")]
@@ -194,31 +194,31 @@ pub struct ConfigArgs {
     #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub no_reliability: bool,
     /// Speed factor K of the reliability weighting.
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub speed: Option<f32>,
     /// Curve-variance scale V_max of the reliability weighting.
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub vmax: Option<f32>,
     /// Curve-variance floor V_0 of the reliability weighting (b = 0 at or below it).
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub vfloor: Option<f32>,
     /// Exponent p of the reliability coefficient b = clip(K·(V/V_max)^p, 0, 1).
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub reliability_exponent: Option<f32>,
     /// Tracker on the similarity curve.
     #[arg(long, value_enum, help_heading = "Tracking")]
     pub tracker: Option<TrackerArg>,
     /// Grid tracker: likelihood sharpness λ.
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Tracking")]
     pub sharpness: Option<f32>,
     /// Grid tracker: random-walk step per frame, degrees.
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Tracking")]
     pub diffusion: Option<f32>,
     /// Grid tracker: jump probability per frame.
-    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::unit, help_heading = "Tracking")]
     pub jump_prob: Option<f32>,
     /// Grid tracker: jump probability of the first reliable frames after a pause.
-    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::unit, help_heading = "Tracking")]
     pub onset_jump_prob: Option<f32>,
     /// Grid tracker: frames with b = 0 that make a pause (0 = no onset jump probability).
     #[arg(long, help_heading = "Tracking")]
@@ -227,14 +227,14 @@ pub struct ConfigArgs {
     #[arg(long, help_heading = "Tracking")]
     pub onset_frames: Option<u32>,
     /// Grid tracker: likelihood floor of the onset frames (the first reliable frames after a pause).
-    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::unit, help_heading = "Tracking")]
     pub onset_floor: Option<f32>,
     /// Grid tracker: gain of the running mean curve that places the estimate between grid points
     /// (0 = parabola through the log-posterior, the earlier behaviour).
-    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::unit, help_heading = "Tracking")]
     pub refine_gain: Option<f32>,
     /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Tracking")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Tracking")]
     pub refine_limit: Option<f32>,
     /// Grid tracker: the curve whose running mean places the estimate between grid points.
     #[arg(long, value_enum, help_heading = "Tracking")]
@@ -247,13 +247,13 @@ pub struct ConfigArgs {
     )]
     pub noise_gate: Option<OnOff>,
     /// Noise-floor gate: largest rise of the tracked floor, dB per second.
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_rise: Option<f32>,
     /// Noise-floor gate: frame power above the floor (dB) where b starts to pass.
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_open: Option<f32>,
     /// Noise-floor gate: frame power above the floor (dB) where b passes fully.
-    #[arg(long, value_parser = crate::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::finite, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub gate_full: Option<f32>,
     /// Frame onset weighting of the reliability b: on (the default preset) or off (the thesis).
     #[arg(
@@ -263,24 +263,24 @@ pub struct ConfigArgs {
     )]
     pub frame_onset: Option<OnOff>,
     /// Frame onset: frames of power history the rise is measured against.
-    #[arg(long, value_parser = crate::arg_values::onset_history, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::onset_history, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub frame_onset_history: Option<usize>,
     /// Frame onset: rise (dB) at and below which a frame gets the floor weight.
     #[arg(
-        long, value_parser = crate::arg_values::finite,
+        long, value_parser = crate::flags::arg_values::finite,
         allow_negative_numbers = true,
         help_heading = "Reliability: weighting, noise gate, frame onset"
     )]
     pub frame_onset_low: Option<f32>,
     /// Frame onset: rise (dB) at and above which a frame gets full weight.
     #[arg(
-        long, value_parser = crate::arg_values::finite,
+        long, value_parser = crate::flags::arg_values::finite,
         allow_negative_numbers = true,
         help_heading = "Reliability: weighting, noise gate, frame onset"
     )]
     pub frame_onset_high: Option<f32>,
     /// Frame onset: weight of frames at or below the low rise.
-    #[arg(long, value_parser = crate::arg_values::unit, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    #[arg(long, value_parser = crate::flags::arg_values::unit, help_heading = "Reliability: weighting, noise gate, frame onset")]
     pub frame_onset_floor: Option<f32>,
     /// Blind self-calibration of the cardioids from the diffuse background: on (the default
     /// preset) or off (the thesis; also off with a measured --table, which already holds the array).
@@ -290,19 +290,19 @@ pub struct ConfigArgs {
     #[arg(long, value_enum, help_heading = "Self-calibration")]
     pub selfcal_adapt: Option<OnOff>,
     /// Directness exponent γ of the direct-sound peak weighting (0 = off).
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub directness: Option<f32>,
     /// Onset exponent of the direct-sound peak weighting (0 = off).
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub onset: Option<f32>,
     /// Absolute peak threshold on |X_omni| (0 = off).
-    #[arg(long, value_parser = crate::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
+    #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Analysis: peaks and features")]
     pub peak_threshold: Option<f32>,
     /// FDIV intensity smoothing pole.
-    #[arg(long, value_parser = crate::arg_values::pole, help_heading = "Baselines: FDIV and TDIV")]
+    #[arg(long, value_parser = crate::flags::arg_values::pole, help_heading = "Baselines: FDIV and TDIV")]
     pub fdiv_pole: Option<f32>,
     /// TDIV smoothing pole.
-    #[arg(long, value_parser = crate::arg_values::pole, help_heading = "Baselines: FDIV and TDIV")]
+    #[arg(long, value_parser = crate::flags::arg_values::pole, help_heading = "Baselines: FDIV and TDIV")]
     pub tdiv_pole: Option<f32>,
     /// Multi-talker tracks with persistent IDs (similarity method): on or off (the presets;
     /// `locate --tracks` and `eval` of a multi-talker folder switch them on).
@@ -310,7 +310,7 @@ pub struct ConfigArgs {
     pub multi_talker: Option<OnOff>,
     /// Thesis alternatives (see `docs/options.md`).
     #[command(flatten, next_help_heading = "Thesis options")]
-    pub options: crate::options_eval::OptionArgs,
+    pub options: crate::evaluation::options_eval::OptionArgs,
 }
 
 impl ConfigArgs {
@@ -341,7 +341,7 @@ impl ConfigArgs {
     pub fn config(&self) -> Result<LocatorConfig> {
         let mut c = cma_config::Preset::from(self.preset).config();
         if let Some(path) = &self.config {
-            let text = crate::text_file::read(path)?;
+            let text = crate::io::text_file::read(path)?;
             c = cma_config::parse_over(&c, &text)
                 .map_err(|e| SimError::Other(format!("{}: {e}", path.display())))?;
         }
@@ -506,17 +506,17 @@ impl ConfigArgs {
     }
 
     /// Reads the `--table` file, if any.
-    pub fn measured_table(&self) -> Result<Option<crate::table_io::OwnedTable>> {
+    pub fn measured_table(&self) -> Result<Option<crate::io::table_io::OwnedTable>> {
         self.table
             .as_deref()
-            .map(crate::table_io::OwnedTable::read)
+            .map(crate::io::table_io::OwnedTable::read)
             .transpose()
     }
 
     /// The reference table to use: `measured` (from [`Self::measured_table`]) or the ideal one.
     pub fn table<'a>(
         &self,
-        measured: Option<&'a crate::table_io::OwnedTable>,
+        measured: Option<&'a crate::io::table_io::OwnedTable>,
     ) -> Result<ReferenceTable<'a>> {
         match measured {
             Some(t) => t.as_table(),

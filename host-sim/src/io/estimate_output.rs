@@ -6,8 +6,8 @@
 //! --plain`), with the names of the set bits beside it where there is room. The wire line itself
 //! carries them in hexadecimal, like its other fields ([`cma_core::wire`]); the decoder converts.
 
-use crate::fixed_decimal::write_fixed;
-use crate::locate::Row;
+use crate::io::fixed_decimal::write_fixed;
+use crate::localization::frame_estimates::Row;
 use cma_core::Flags;
 use std::io::Write;
 
@@ -47,7 +47,7 @@ pub fn flag_names(flags: Flags) -> Vec<&'static str> {
         .collect()
 }
 
-/// Writes rows as JSON lines: the columns of [`crate::locate::CSV_HEADER`] as keys, numbers formatted
+/// Writes rows as JSON lines: the columns of [`crate::localization::frame_estimates::CSV_HEADER`] as keys, numbers formatted
 /// as in the CSV, plus `flag_names`.
 pub fn write_jsonl(mut out: impl Write, rows: &[Row]) -> std::io::Result<()> {
     for r in rows {

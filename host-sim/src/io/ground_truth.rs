@@ -28,7 +28,7 @@ pub fn wrap180(a: f64) -> f64 {
 impl Track {
     /// Parses a `.pos.csv` file.
     pub fn read(path: &Path) -> Result<Self> {
-        let text = crate::text_file::read(path)?;
+        let text = crate::io::text_file::read(path)?;
         Self::parse(&text).map_err(|(line, reason)| SimError::BadCsv {
             path: path.to_path_buf(),
             line,

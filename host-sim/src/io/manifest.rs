@@ -59,7 +59,7 @@ fn split_csv(line: &str) -> Vec<String> {
 /// Reads `dir/manifest.csv`.
 pub fn read(dir: &Path) -> Result<Vec<Entry>> {
     let path = dir.join("manifest.csv");
-    let text = crate::text_file::read(&path)?;
+    let text = crate::io::text_file::read(&path)?;
     let bad = |line: usize, reason: String| SimError::BadCsv {
         path: path.clone(),
         line,

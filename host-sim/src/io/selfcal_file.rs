@@ -68,7 +68,7 @@ const MAX_STORE_BYTES: u64 = 1 << 20;
 /// its flash sector, or the emulated board's store file): then the newest valid record, exactly as
 /// the board saved it.
 pub fn read(path: &Path) -> Result<CapsuleEstimate> {
-    let bytes = crate::text_file::read_bytes(path, MAX_STORE_BYTES)?;
+    let bytes = crate::io::text_file::read_bytes(path, MAX_STORE_BYTES)?;
     // A store image starts with a record or with erased flash (0xFF, never UTF-8 text).
     if bytes.starts_with(&capsule_estimate_record::MAGIC) || bytes.first() == Some(&0xFF) {
         return newest_record(&bytes, path).map(|r| r.estimate);
@@ -80,7 +80,7 @@ pub fn read(path: &Path) -> Result<CapsuleEstimate> {
             bytes.len()
         )));
     }
-    parse(&crate::text_file::decode(bytes, path)?, path)
+    parse(&crate::io::text_file::decode(bytes, path)?, path)
 }
 
 /// The newest valid record of a store image (any build's key: a dump does not say which build
@@ -103,7 +103,7 @@ pub fn newest_record(image: &[u8], path: &Path) -> Result<Record> {
 pub fn write(path: &Path, est: &CapsuleEstimate) -> Result<()> {
     check_output(path)?;
     let text = format(est);
-    crate::wav_io::write_atomically(path, |tmp| {
+    crate::io::wav_io::write_atomically(path, |tmp| {
         std::fs::write(tmp, text.as_bytes()).map_err(|e| SimError::io(tmp, e))
     })
 }

@@ -2,7 +2,7 @@
 //! [`cma_core::table_file`]) and lend them to the core as a [`ReferenceTable`].
 
 use crate::error::{Result, SimError};
-use crate::wav_io::write_atomically;
+use crate::io::wav_io::write_atomically;
 use cma_core::reference_table::Feature;
 use cma_core::table_file::{self, TableParts};
 use cma_core::ReferenceTable;

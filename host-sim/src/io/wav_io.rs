@@ -1,5 +1,5 @@
 //! WAV reading (one pass, any conforming RIFF layout) and writing (hound): 4-channel CMA1 or AmbiX
-//! input, mono sources, outputs through [`crate::output_file`].
+//! input, mono sources, outputs through [`crate::io::output_file`].
 
 use crate::error::{Result, SimError};
 use cma_core::CARDIOID_LOOK_DEG;
@@ -665,7 +665,7 @@ pub enum OutFormat {
 }
 
 /// Writes interleaved samples (full scale ±1, clamped for PCM) as an output file
-/// ([`crate::output_file`]: complete or not at all).
+/// ([`crate::io::output_file`]: complete or not at all).
 pub fn write_wav(
     path: &Path,
     rate: u32,
@@ -683,7 +683,7 @@ pub fn write_frames(path: &Path, rate: u32, frames: &[[f32; 4]], format: OutForm
 }
 
 /// [`write_wav`], with `comment` stored in a `LIST`/`INFO` chunk (`ICMT`) after the samples
-/// ([`crate::sweep::append_info_comment`]).
+/// ([`crate::calibration::sweep::append_info_comment`]).
 pub fn write_wav_with_comment(
     path: &Path,
     rate: u32,
@@ -723,16 +723,16 @@ pub fn write_wav_with_comment(
         }
         w.finalize().map_err(wr)?;
         match comment {
-            Some(text) => crate::sweep::append_info_comment(tmp, text),
+            Some(text) => crate::calibration::sweep::append_info_comment(tmp, text),
             None => Ok(()),
         }
     })
 }
 
-/// Writes an output file through a temporary path (see [`crate::output_file`]: atomic for regular
+/// Writes an output file through a temporary path (see [`crate::io::output_file`]: atomic for regular
 /// files, through symbolic links, into device nodes and FIFOs without replacing them).
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    crate::output_file::write(path, write)
+    crate::io::output_file::write(path, write)
 }
 
 #[cfg(test)]

@@ -8,9 +8,9 @@
 //! [`cma_core::beamformer`]).
 
 use crate::error::{Result, SimError};
-use crate::ground_truth::Track;
-use crate::scene::{self, Motion, SceneSpec};
-use crate::wav_io::{write_wav, OutFormat};
+use crate::io::ground_truth::Track;
+use crate::io::wav_io::{write_wav, OutFormat};
+use crate::simulation::scene::{self, Motion, SceneSpec};
 use cma_core::beamformer::{self as bf, BeamConfig, BeamState, OmniSource};
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 use std::path::Path;
@@ -192,7 +192,7 @@ pub fn beam_report(data: &Path, snr_db: f64, rate: u32) -> Result<Vec<BeamRow>> 
             seed: 7,
             array: Default::default(),
             noise_sources: Vec::new(),
-            source_room: crate::noise_source::SourceRoom::Free,
+            source_room: crate::simulation::noise_source::SourceRoom::Free,
         };
         let parts = scene::synthesize_parts(&spec, None);
         let mix: Vec<[f32; 4]> = parts
@@ -293,7 +293,7 @@ mod tests {
             seed: 5,
             array: Default::default(),
             noise_sources: Vec::new(),
-            source_room: crate::noise_source::SourceRoom::Free,
+            source_room: crate::simulation::noise_source::SourceRoom::Free,
         };
         let p = scene::synthesize_parts(&spec, None);
         let mix: Vec<[f32; 4]> = p

@@ -13,7 +13,7 @@
 //! always used, ½W + ½(X cos φ_m + Y sin φ_m), so ideal scenes stay bit-identical.
 
 use crate::error::{Result, SimError};
-use crate::signal::Rng;
+use crate::simulation::signal::Rng;
 use cma_core::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS};
 use cma_core::{CARDIOIDS, CARDIOID_LOOK_DEG};
 use std::f64::consts::PI;
@@ -177,7 +177,7 @@ pub struct ArrayArgs {
     pub drift_corner: f64,
     /// The capsules' own noise (white, independent, equal in the four capsules), dB relative to
     /// the diffuse noise on the omni (`--snr`), or to the talker without it; e.g. `-15`.
-    #[arg(long, allow_hyphen_values = true, value_parser = crate::arg_values::decibels)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::flags::arg_values::decibels)]
     pub self_noise: Option<f64>,
 }
 

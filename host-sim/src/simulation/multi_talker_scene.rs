@@ -17,9 +17,9 @@
 //! recognises as a multi-talker folder; a folder holds either kind, not both).
 
 use crate::error::{Result, SimError};
-use crate::scene::{self, Motion, RoomResponse, SceneSpec};
-use crate::signal::{pink_noise, Rng};
-use crate::wav_io::{read_mono, write_atomically, write_frames, OutFormat};
+use crate::io::wav_io::{read_mono, write_atomically, write_frames, OutFormat};
+use crate::simulation::scene::{self, Motion, RoomResponse, SceneSpec};
+use crate::simulation::signal::{pink_noise, Rng};
 use std::path::{Path, PathBuf};
 
 /// Header of a multi-talker manifest.
@@ -136,11 +136,11 @@ pub struct MultiTalkerSpec {
     /// Seed of the schedule, the synthetic speech and the noise.
     pub seed: u64,
     /// The capsules of the simulated array (`--capsule-gain-db`, `--capsule-beta`, `--beta-drift`).
-    pub array: crate::array_model::ArrayModel,
+    pub array: crate::simulation::array_model::ArrayModel,
     /// Directional noise sources (levels relative to one talker's power).
-    pub noise_sources: Vec<crate::noise_source::NoiseSource>,
+    pub noise_sources: Vec<crate::simulation::noise_source::NoiseSource>,
     /// The room the noise sources are rendered through.
-    pub source_room: crate::noise_source::SourceRoom,
+    pub source_room: crate::simulation::noise_source::SourceRoom,
 }
 
 /// A synthesised multi-talker scene.
@@ -164,7 +164,7 @@ pub fn random_azimuths(n: usize, rng: &mut Rng) -> Vec<f64> {
         let apart = az.iter().enumerate().all(|(i, a)| {
             az[i + 1..]
                 .iter()
-                .all(|b| crate::ground_truth::wrap180(a - b).abs() >= 60.0)
+                .all(|b| crate::io::ground_truth::wrap180(a - b).abs() >= 60.0)
         });
         if apart {
             return az;
@@ -290,9 +290,9 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             room: spec.rooms.get(k).cloned(),
             peak_dbfs: 0.0,
             seed: spec.seed,
-            array: crate::array_model::ArrayModel::default(),
+            array: crate::simulation::array_model::ArrayModel::default(),
             noise_sources: Vec::new(),
-            source_room: crate::noise_source::SourceRoom::Free,
+            source_room: crate::simulation::noise_source::SourceRoom::Free,
         };
         let [w, x, y] = scene::render_talker(&one, total, 0);
         // Equal power over the talker's speaking time.
@@ -328,7 +328,7 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
         }
     }
     if !spec.noise_sources.is_empty() {
-        let sources = crate::noise_source::render(
+        let sources = crate::simulation::noise_source::render(
             &spec.noise_sources,
             &spec.source_room,
             spec.rate,
@@ -389,7 +389,7 @@ pub fn write(
     }
     if let Some((manifest, set)) = manifest {
         if manifest.exists() {
-            let text = crate::text_file::read(manifest)?;
+            let text = crate::io::text_file::read(manifest)?;
             if text.lines().next().map(str::trim) != Some(MANIFEST_HEADER) {
                 return Err(SimError::Usage(format!(
                     "--manifest {}: a single-talker manifest; multi-talker scenes need their own folder",
@@ -399,10 +399,10 @@ pub fn write(
         }
         let row = format!(
             "{},{set},{},\"host-sim scene --talkers\"",
-            crate::manifest::scene_path(manifest, out).display(),
+            crate::io::manifest::scene_path(manifest, out).display(),
             scene.talkers.len()
         );
-        crate::manifest::append_row(manifest, MANIFEST_HEADER, &row)?;
+        crate::io::manifest::append_row(manifest, MANIFEST_HEADER, &row)?;
     }
     Ok(())
 }
@@ -466,11 +466,11 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
     let noise_sources = a
         .noise_sources
         .iter()
-        .map(|s| crate::noise_source::NoiseSource::parse(s))
+        .map(|s| crate::simulation::noise_source::NoiseSource::parse(s))
         .collect::<Result<Vec<_>>>()?;
     let (rooms, source_room) = if a.room.is_some() {
         let mut rooms = Vec::with_capacity(n);
-        let mut source_room = crate::noise_source::SourceRoom::Free;
+        let mut source_room = crate::simulation::noise_source::SourceRoom::Free;
         for az in &azimuths {
             let (r, s) = crate::commands::scene::rooms(a, *az)?;
             rooms.extend(r);
@@ -486,8 +486,8 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
             .map(|(p, d)| RoomResponse::read(p, a.rate, a.rir_n3d, a.rir_length, d))
             .collect::<Result<Vec<_>>>()?;
         let source_room = match rooms.first() {
-            Some(r) => crate::noise_source::SourceRoom::Measured(r.clone()),
-            None => crate::noise_source::SourceRoom::Free,
+            Some(r) => crate::simulation::noise_source::SourceRoom::Measured(r.clone()),
+            None => crate::simulation::noise_source::SourceRoom::Free,
         };
         (rooms, source_room)
     };
@@ -498,7 +498,7 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
         .map(|p| {
             let (r, x) = read_mono(p)?;
             let x: Vec<f64> = x.iter().map(|v| f64::from(*v)).collect();
-            Ok(crate::signal::resample(&x, r, a.rate))
+            Ok(crate::simulation::signal::resample(&x, r, a.rate))
         })
         .collect::<Result<Vec<_>>>()?;
     let spec = MultiTalkerSpec {

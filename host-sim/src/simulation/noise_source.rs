@@ -5,9 +5,9 @@
 //! azimuth, or free field).
 
 use crate::error::{Result, SimError};
-use crate::room::ShoeBox;
-use crate::scene::{synthetic_speech, RoomResponse};
-use crate::signal::{convolve, normalize_rms, pink_noise, Rng};
+use crate::simulation::room::ShoeBox;
+use crate::simulation::scene::{synthetic_speech, RoomResponse};
+use crate::simulation::signal::{convolve, normalize_rms, pink_noise, Rng};
 use std::f64::consts::PI;
 
 /// What a noise source sounds like.

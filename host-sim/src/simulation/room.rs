@@ -9,8 +9,8 @@
 //! sound.
 
 use crate::error::{Result, SimError};
-use crate::scene::RoomResponse;
-use crate::signal::Rng;
+use crate::simulation::scene::RoomResponse;
+use crate::simulation::signal::Rng;
 use std::f64::consts::PI;
 
 /// Speed of sound, m/s.

@@ -7,12 +7,12 @@
 //! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E\[X²\] = E\[Y²\] = E\[Z²\] = E\[W²\]/3. The capsules then
 //! see omni = W and cardioid_m = ½W + ½(X cos φ_m + Y sin φ_m), so |card|²/|omni|² = ⅓ on average.
 
-use crate::array_model::ArrayModel;
 use crate::error::{Result, SimError};
-use crate::ground_truth::{wrap180, Track};
-use crate::noise_source::{self, NoiseSource, SourceRoom};
-use crate::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
-use crate::wav_io::{read_four_channels, read_mono, write_atomically, write_frames, OutFormat};
+use crate::io::ground_truth::{wrap180, Track};
+use crate::io::wav_io::{read_four_channels, read_mono, write_atomically, write_frames, OutFormat};
+use crate::simulation::array_model::ArrayModel;
+use crate::simulation::noise_source::{self, NoiseSource, SourceRoom};
+use crate::simulation::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -404,9 +404,9 @@ pub fn write_scene(
         let (from, to) = scene.score_window();
         let row = format!(
             "{},{set},{from:.3},{to:.3},\"host-sim scene\"",
-            crate::manifest::scene_path(manifest, out).display()
+            crate::io::manifest::scene_path(manifest, out).display()
         );
-        crate::manifest::append_row(manifest, "file,set,score_from_s,score_to_s,note", &row)?;
+        crate::io::manifest::append_row(manifest, "file,set,score_from_s,score_to_s,note", &row)?;
     }
     Ok(())
 }

@@ -1,9 +1,10 @@
-//! `host-sim locate`: runs the core on a recording, block by block as the firmware does, and writes
-//! one CSV row per analysis frame.
+//! The core's estimates of a recording, one per analysis frame: the core run over it block by block
+//! as the firmware does (what `host-sim locate` computes), and the estimate CSV it writes and
+//! `eval`/`score` read.
 
 use crate::error::{Result, SimError};
-use crate::fixed_decimal::write_fixed;
-use crate::wav_io::{Recording, RecordingStream};
+use crate::io::fixed_decimal::write_fixed;
+use crate::io::wav_io::{Recording, RecordingStream};
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
 use std::io::Write;
@@ -13,7 +14,8 @@ use std::io::Write;
 pub const BLOCK: usize = 1024;
 
 // Streamed chunks hold whole blocks, so streaming feeds the core exactly the blocks of `locate`.
-const _: () = assert!(crate::wav_io::CHUNK_FRAMES / BLOCK * BLOCK == crate::wav_io::CHUNK_FRAMES);
+const _: () =
+    assert!(crate::io::wav_io::CHUNK_FRAMES / BLOCK * BLOCK == crate::io::wav_io::CHUNK_FRAMES);
 
 /// One analysis frame's result with its time in seconds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -173,7 +175,7 @@ pub struct CsvEstimate {
 
 /// Reads an estimate CSV with at least the columns `t_s,azimuth_deg,azimuth_raw_deg,confidence`.
 pub fn read_csv(path: &std::path::Path) -> Result<Vec<CsvEstimate>> {
-    let text = crate::text_file::read(path)?;
+    let text = crate::io::text_file::read(path)?;
     let bad = |line: usize, reason: String| SimError::BadCsv {
         path: path.to_path_buf(),
         line,

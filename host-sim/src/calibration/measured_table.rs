@@ -1,9 +1,9 @@
-//! `host-sim calibrate`: a measured reference table from exponential-sine-sweep recordings of the
-//! array at known azimuths (thesis §2.4, §5.1.3, Fig. 5.3).
+//! A measured reference table from exponential-sine-sweep recordings of the array at known azimuths
+//! (thesis §2.4, §5.1.3, Fig. 5.3), what `host-sim calibrate` writes.
 //!
 //! Per recording (one 4-channel WAV per azimuth, CMA1 order):
 //! 1. deconvolve every channel with the regularised inverse of the sweep (eq. 2.44–2.46,
-//!    [`crate::sweep::Deconvolver`]);
+//!    [`crate::calibration::sweep::Deconvolver`]);
 //! 2. find the direct sound, the largest |h_omni|, and check that the response is impulsive (a crest
 //!    factor of at least [`MIN_CREST_DB`]; a recording of a different sweep smears into a chirp and fails);
 //! 3. window the direct part of all four responses with one window: from `pre` before the direct peak,
@@ -32,9 +32,9 @@
 //! active ratio toward (E[X_c·X_0*]/E|X_0|² of plane waves from every measured azimuth with equal
 //! power), so it is exact for the active features where the magnitude value is an approximation.
 
+use crate::calibration::sweep::{Deconvolver, SweepSpec};
 use crate::error::{Result, SimError};
-use crate::sweep::{Deconvolver, SweepSpec};
-use crate::table_io::OwnedTable;
+use crate::io::table_io::OwnedTable;
 use cma_core::reference_table::Feature;
 use cma_core::{CARDIOIDS, MAX_AZIMUTHS};
 use rustfft::num_complex::Complex64;
@@ -548,11 +548,11 @@ pub fn max_deviation_from_ideal(t: &OwnedTable) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::array_model::ArrayModel;
-    use crate::ground_truth::wrap180;
-    use crate::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
-    use crate::signal::{convolve, Rng};
-    use crate::wav_io::Recording;
+    use crate::io::ground_truth::wrap180;
+    use crate::io::wav_io::Recording;
+    use crate::simulation::array_model::ArrayModel;
+    use crate::simulation::scene::{synthesize, synthetic_speech, Motion, SceneSpec};
+    use crate::simulation::signal::{convolve, Rng};
     use cma_core::{LocatorConfig, ReferenceTable};
 
     const RATE: u32 = 16_000;
@@ -805,7 +805,7 @@ mod tests {
                 seed: i as u64 + 11,
                 array: *model,
                 noise_sources: Vec::new(),
-                source_room: crate::noise_source::SourceRoom::Free,
+                source_room: crate::simulation::noise_source::SourceRoom::Free,
             };
             let s = synthesize(&spec);
             let rec = Recording {
@@ -816,7 +816,8 @@ mod tests {
             // as `--table` switches it off.
             let mut config = LocatorConfig::default();
             config.capsule_calibration.enabled = false;
-            let rows = crate::locate::locate(&rec, config, table, |_| {}).unwrap();
+            let rows =
+                crate::localization::frame_estimates::locate(&rec, config, table, |_| {}).unwrap();
             for r in rows {
                 if r.t_s > s.active_s.0 + 0.5 && r.t_s < s.active_s.1 {
                     errs.push(wrap180(f64::from(r.estimate.azimuth_deg) - az).abs());
@@ -842,7 +843,7 @@ mod tests {
     }
 
     /// A sweep calibration of an imperfect array and the table of its true capsule model
-    /// ([`crate::selfcal_table`]) agree: the same features and the same magnitude and active noise
+    /// ([`crate::calibration::selfcal_table`]) agree: the same features and the same magnitude and active noise
     /// rows. Only the power noise row differs, by design: the sweeps see a horizontal diffuse field
     /// (√(a² + ½b²)), the estimate's table assumes a 3-D one (√(a² + ⅓b²)).
     #[test]
@@ -856,8 +857,12 @@ mod tests {
         let recs = record_all(&sweep, (0..24).map(|q| q as f64 * 15.0), &model, None);
         let swept = calibrate(&recs, &sweep, &o).unwrap().table;
         let est = model.capsule_estimate(1e6).unwrap();
-        let t = crate::selfcal_table::table_from_estimate(&est, &o.freqs_hz(), &swept.azimuths_deg)
-            .unwrap();
+        let t = crate::calibration::selfcal_table::table_from_estimate(
+            &est,
+            &o.freqs_hz(),
+            &swept.azimuths_deg,
+        )
+        .unwrap();
         assert_eq!(t.freqs_hz, swept.freqs_hz);
         // Anechoic sweeps of the model measure it to float precision (about 1e-7).
         let worst = |x: &[Feature], y: &[Feature]| {

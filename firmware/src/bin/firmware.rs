@@ -1,19 +1,18 @@
 //! Firmware of the coincident-microphone-array board (STM32F411CE): four capsules over two I2S ADCs,
 //! the `cma-core` similarity localizer in real time, one `$CMA` frame line per estimate over UART.
 //!
-//! The application (`app.rs`) on the STM32F411CE board (`boards/f411.rs`); `bin/firmware-mps2.rs` puts
-//! the same application on the emulated board. Build with
+//! The application ([`cma_firmware::app`]) on the STM32F411CE board (`src/boards/f411.rs`), started
+//! on embassy's thread-mode executor. Build with
 //! `cargo build -p firmware --release --target thumbv7em-none-eabihf`; on the host this binary is an
 //! empty stub so that workspace-wide commands keep working.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+/// Starts the application on embassy's thread-mode executor (sleeps with `WFE`).
 #[cfg(target_os = "none")]
-mod app;
-#[cfg(target_os = "none")]
-#[path = "boards/f411.rs"]
-mod board;
-#[cfg(target_os = "none")]
-mod runtime;
+#[embassy_executor::main]
+async fn main(spawner: embassy_executor::Spawner) {
+    cma_firmware::app::run(spawner).await;
+}
 
 #[cfg(not(target_os = "none"))]
 fn main() {
