@@ -260,6 +260,18 @@ def summary_table(report):
     return lines
 
 
+def span_table(report):
+    """Utterance-span metrics (`eval`: speaking from the start to the end of each utterance, collar
+    `span_collar_s`) and the share of those frames with a live track near the talker."""
+    lines = ["| set | span recall | span precision | a track within 20° (active or not) |",
+             "|---|---|---|---|"]
+    for s in report["sets"]:
+        m = s["metrics"]
+        lines.append(f"| {s['set']} | {pct(m['span_recall'])} | {pct(m['span_precision'])} | "
+                     f"{pct(m['span_located'])} |")
+    return lines
+
+
 def target_checks(report):
     """Per set of the report with targets: its name and (met, target text) per metric."""
     sets = {s["set"]: s["metrics"] for s in report["sets"]}
@@ -326,7 +338,9 @@ def write_doc(doc, report, rooms, seeds, seed0, single_same, single, imperfect=N
         + (" --imperfect DIR" if imperfect is not None else "")
         + (" --other-rooms DIR" if other is not None else "") + "`).",
         "",
-    ] + summary_table(report)
+    ] + summary_table(report) + [
+        "", f"Over whole utterance spans (speaking from the start to the end of each utterance, "
+        f"collar {report['span_collar_s']} s; `eval`'s span metrics):", ""] + span_table(report)
     if imperfect is not None:
         on, off = imperfect
         lines += ["", "The same scenes through imperfect arrays (`--imperfect DIR`: per scene cardioid "

@@ -17,6 +17,23 @@
 //!   previous match; summed over talkers, per minute of recording;
 //! - **ID purity**: per track ID, the share of its matched frames on the talker it is matched to
 //!   most; pooled over IDs (Σ most / Σ all) and the worst ID with at least one second of matches.
+//!
+//! # Utterance spans
+//! A camera or a transcript needs a talker's track active for his whole utterance, the short pauses
+//! between words included, and not long after it. The *span* metrics score that: a talker speaks
+//! from the start to the end of each of his utterances (the truth's `speaking` runs, runs less
+//! than [`SPAN_MERGE_S`] apart joined into one utterance), and only the frames within
+//! [`SPAN_COLLAR_S`] of an utterance's start or end are not scored. The matching is the same.
+//! - **span recall**: matched / scored talker-frames inside utterances;
+//! - **span precision**: matched / active track-frames (not counting those matched to a talker
+//!   inside its collar);
+//! - **located**: share of the scored talker-frames with a live track (active or not) within
+//!   [`TOLERANCE_DEG`] of the talker: what a smarter activity decision could reach.
+//!
+//! The truth files of `host-sim scene --talkers` already mark whole utterances (first to last
+//! sample of the utterance above −30 dB of its loudest 10 ms), so the spans are their `speaking`
+//! runs; the span metrics differ from recall and precision by the narrower collar, which scores
+//! the onset and the hangover of every track too.
 
 use crate::error::{Result, SimError};
 use crate::multi_talker_scene::{truth_path, MANIFEST_HEADER};
@@ -32,6 +49,29 @@ use std::path::{Path, PathBuf};
 pub const TOLERANCE_DEG: f64 = 20.0;
 /// Frames this close to a talker's utterance start or end are not scored for that talker, s.
 pub const COLLAR_S: f64 = 0.25;
+/// Frames this close to the start or end of a talker's utterance span are not scored by the span
+/// metrics, s.
+pub const SPAN_COLLAR_S: f64 = 0.1;
+/// Speaking runs of one talker less than this apart are one utterance for the span metrics, s.
+pub const SPAN_MERGE_S: f64 = 0.5;
+
+/// `host-sim eval --help` on a multi-talker folder's columns.
+pub const COLUMNS_HELP: &str = "\
+On a multi-talker folder (scene --talkers), per frame the active tracks are matched one to one to
+the speaking talkers within 20° (most pairs, then least error):
+  recall       matched / speaking talker-frames, not counting frames within 0.25 s of an
+               utterance's start or end
+  precision    matched / active track-frames (not counting matches inside that collar)
+  error °      mean absolute azimuth error of the matches
+  switch/min   a talker matched by another ID than before, per minute
+  ID purity    share of each ID's matched frames on its main talker (worst: the worst ID)
+  span recall, span precision
+               the same over whole utterance spans (speaking runs less than 0.5 s apart joined),
+               only frames within 0.1 s of a span's start or end not scored: the track must be
+               active through the pauses inside an utterance and end with it
+  located      share of those span talker-frames with a live track (active or not) within 20°
+  noise        frames with an active track on a directional noise source (NAME.noise.csv)
+               matched to no talker, %";
 
 /// The tracks the core reports after one analysis frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -195,6 +235,34 @@ impl TalkerTruth {
         }
     }
 
+    /// The talker's utterances (start, end) in s: the runs of `speaking` rows, runs less than
+    /// `merge` s apart joined; an utterance that lasts to the last row ends at infinity.
+    #[must_use]
+    pub fn utterances(&self, merge: f64) -> Vec<(f64, f64)> {
+        let mut out: Vec<(f64, f64)> = Vec::new();
+        let mut start: Option<f64> = None;
+        for r in &self.rows {
+            match (start, r.2) {
+                (None, true) => start = Some(r.0),
+                (Some(a), false) => {
+                    match out.last_mut() {
+                        Some(last) if a - last.1 < merge => last.1 = r.0,
+                        _ => out.push((a, r.0)),
+                    }
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(a) = start {
+            match out.last_mut() {
+                Some(last) if a - last.1 < merge => last.1 = f64::INFINITY,
+                _ => out.push((a, f64::INFINITY)),
+            }
+        }
+        out
+    }
+
     /// Whether `t` lies within `collar` s of a change of the speaking state.
     #[must_use]
     pub fn in_collar(&self, t: f64, collar: f64) -> bool {
@@ -231,6 +299,16 @@ pub struct Counts {
     /// Frames with an active track on a directional noise source (within the tolerance of one that
     /// is switched on, and matched to no talker).
     pub noise_frames: usize,
+    /// Scored talker-frames inside utterance spans ([`SPAN_COLLAR_S`]).
+    pub span_talker_frames: usize,
+    /// Of them matched.
+    pub span_matched_talker_frames: usize,
+    /// Of them with a live track (active or not) within the tolerance.
+    pub span_located_frames: usize,
+    /// Active track-frames (without those matched to a talker inside its span collar).
+    pub span_track_frames: usize,
+    /// Of them matched.
+    pub span_matched_track_frames: usize,
 }
 
 impl Counts {
@@ -246,6 +324,11 @@ impl Counts {
         self.seconds += o.seconds;
         self.frames += o.frames;
         self.noise_frames += o.noise_frames;
+        self.span_talker_frames += o.span_talker_frames;
+        self.span_matched_talker_frames += o.span_matched_talker_frames;
+        self.span_located_frames += o.span_located_frames;
+        self.span_track_frames += o.span_track_frames;
+        self.span_matched_track_frames += o.span_matched_track_frames;
     }
 }
 
@@ -266,6 +349,12 @@ pub struct Metrics {
     pub worst_id_purity: f64,
     /// Share of frames with an active track on a noise source (0 without noise sources).
     pub noise_track_share: f64,
+    /// Matched / scored talker-frames inside utterance spans.
+    pub span_recall: f64,
+    /// Matched / active track-frames, scored over utterance spans.
+    pub span_precision: f64,
+    /// Share of the scored span talker-frames with a live track within the tolerance.
+    pub span_located: f64,
 }
 
 /// One scene's result.
@@ -301,6 +390,8 @@ pub struct Report {
     pub tolerance_deg: f64,
     /// Collar, s.
     pub collar_s: f64,
+    /// Collar of the span metrics, s.
+    pub span_collar_s: f64,
     /// Per set, then `all`.
     pub sets: Vec<SetScore>,
     /// Per scene.
@@ -336,6 +427,9 @@ fn metrics(c: &Counts, worst_id_purity: f64) -> Metrics {
         } else {
             0.0
         },
+        span_recall: ratio(c.span_matched_talker_frames, c.span_talker_frames),
+        span_precision: ratio(c.span_matched_track_frames, c.span_track_frames),
+        span_located: ratio(c.span_located_frames, c.span_talker_frames),
     }
 }
 
@@ -442,6 +536,7 @@ pub fn score(
         ..Counts::default()
     };
     let mut last_id: Vec<Option<u16>> = vec![None; truths.len()];
+    let spans: Vec<Vec<(f64, f64)>> = truths.iter().map(|t| t.utterances(SPAN_MERGE_S)).collect();
     let mut per_id: HashMap<u16, Vec<usize>> = HashMap::new();
     for f in frames {
         let active: Vec<&TalkerTrack> = f.tracks.iter().filter(|t| t.active).collect();
@@ -490,6 +585,33 @@ pub fn score(
         if on_noise {
             c.noise_frames += 1;
         }
+        // Utterance spans: speaking from start to end, a narrower collar.
+        let mut cand = Vec::new();
+        for (k, t) in truths.iter().enumerate() {
+            let near = |x: f64| (x - f.t_s).abs() < SPAN_COLLAR_S;
+            let collar = spans[k].iter().any(|&(a, b)| near(a) || near(b));
+            let inside = spans[k].iter().any(|&(a, b)| f.t_s >= a && f.t_s < b);
+            if inside || collar {
+                cand.push((collar, t.azimuth_at(f.t_s)));
+            }
+        }
+        let talker_az: Vec<f64> = cand.iter().map(|c| c.1).collect();
+        let matches = best_matching(&track_az, &talker_az);
+        let optional = matches.iter().filter(|m| cand[m.1].0).count();
+        let scored = matches.len() - optional;
+        c.span_matched_talker_frames += scored;
+        c.span_matched_track_frames += scored;
+        c.span_talker_frames += cand.iter().filter(|x| !x.0).count();
+        c.span_track_frames += active.len() - optional;
+        c.span_located_frames += cand
+            .iter()
+            .filter(|x| {
+                !x.0 && f.tracks.iter().any(|t| {
+                    crate::ground_truth::wrap180(f64::from(t.azimuth_deg) - x.1).abs()
+                        <= TOLERANCE_DEG
+                })
+            })
+            .count();
     }
     let frame_s = if frames.len() > 1 {
         (frames[frames.len() - 1].t_s - frames[0].t_s) / (frames.len() - 1) as f64
@@ -683,6 +805,7 @@ pub fn evaluate_with_plots(
     Ok(Report {
         tolerance_deg: TOLERANCE_DEG,
         collar_s: COLLAR_S,
+        span_collar_s: SPAN_COLLAR_S,
         sets,
         scene_scores,
     })
@@ -717,6 +840,21 @@ pub fn format_table(r: &Report) -> String {
             m.id_switches_per_min,
             100.0 * m.id_purity,
             100.0 * m.worst_id_purity
+        ));
+    }
+    s.push_str(&format!(
+        "utterance spans (speaking runs < {SPAN_MERGE_S} s apart joined), collar {} s\n\
+         {:<14} {:>12} {:>15} {:>9}\n",
+        r.span_collar_s, "set", "span recall", "span precision", "located"
+    ));
+    for x in &r.sets {
+        let m = &x.metrics;
+        s.push_str(&format!(
+            "{:<14} {:>11.1}% {:>14.1}% {:>8.1}%\n",
+            x.set,
+            100.0 * m.span_recall,
+            100.0 * m.span_precision,
+            100.0 * m.span_located
         ));
     }
     if r.sets.iter().any(|x| x.counts.noise_frames > 0) {
