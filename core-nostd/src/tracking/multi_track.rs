@@ -814,6 +814,7 @@ mod tests {
             fi: 0,
             y: [0.5; 3],
             weight: 1.0,
+            noise: [0.5; 3],
         }
     }
 
