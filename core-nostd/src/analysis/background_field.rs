@@ -55,9 +55,13 @@ fn band_of_frequency(f_hz: f32) -> usize {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct BackgroundField {
-    /// Whether the noisy references mix toward the measured background (off: the table's noise
-    /// row, the thesis).
+    /// Whether the stage measures the background (for the noise-field report, and for `references`).
     pub enabled: bool,
+    /// Whether the noisy references mix toward the measured background (off: toward the table's
+    /// noise row, as in the thesis). Measured: it pays while the self-calibration is off (a measured
+    /// table); with the self-calibration on, whose correction makes the background look diffuse, it
+    /// does not (CHANGELOG, docs/validation.md).
+    pub references: bool,
     /// A band of a frame is background when its omni power is at most this many dB above the
     /// band's floor.
     pub background_db: f32,
@@ -69,17 +73,25 @@ pub struct BackgroundField {
 }
 
 impl BackgroundField {
-    /// The stage off: references mix toward the table's noise row.
+    /// The stage off: nothing measured, references mix toward the table's noise row.
     pub const OFF: Self = Self {
         enabled: false,
+        references: false,
         background_db: 3.0,
         rise_db_per_s: 2.0,
         memory_frames: 100.0,
     };
 
-    /// The product's setting.
+    /// The product's setting: measured (for the report), the references as in the thesis.
     pub const DEFAULT: Self = Self {
         enabled: true,
+        ..Self::OFF
+    };
+
+    /// Measured, and the noisy references mix toward it.
+    pub const MIXED: Self = Self {
+        enabled: true,
+        references: true,
         ..Self::OFF
     };
 
@@ -345,7 +357,7 @@ mod tests {
     fn state() -> BackgroundFieldState {
         let mut s = BackgroundFieldState::idle();
         s.reset(
-            BackgroundField::DEFAULT,
+            BackgroundField::MIXED,
             FeatureKind::Active,
             FS,
             FS / crate::HOP as f32,

@@ -274,7 +274,8 @@ impl SimilarityFrame {
     ) -> (usize, f32) {
         let omni = spectra.omni();
         let rows = table.rows(self.curves.features);
-        let background = self.background.settings().enabled;
+        let measuring = self.background.settings().enabled;
+        let mixing = measuring && self.background.settings().references;
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
         // On x86_64 the cardioid bins of all peaks first, two recursions at a time (the Cortex-M4F
@@ -298,8 +299,10 @@ impl SimilarityFrame {
                 xc
             };
             let fi = self.bin_rows[k] as usize;
-            let noise = if background {
+            if measuring {
                 self.background.add_peak(k, omni[k], &xc);
+            }
+            let noise = if mixing {
                 let band = self.background.band_of_bin(k);
                 self.background.noise_point(band, rows.noise(fi))
             } else {
@@ -329,8 +332,10 @@ impl SimilarityFrame {
             weight_sum += w;
             n_used += 1;
         }
-        if background {
+        if measuring {
             self.background.end_frame();
+        }
+        if mixing {
             // Peaks of one noise point together: the curve builder then computes each point's
             // per-azimuth constants once per frame.
             sort_by_noise_point(&mut used[..n_used]);
