@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 /// `host-sim eval`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = format!("{}\n\n{}", eval::COLUMNS_HELP, crate::multi_talker_eval::COLUMNS_HELP))]
+#[command(after_help = format!("{}\n\n{}", eval::COLUMNS_HELP, crate::evaluation::multi_talker_eval::COLUMNS_HELP))]
 pub struct EvalArgs {
     /// Folder with manifest.csv (as `host-sim scene --manifest DIR/manifest.csv` writes it).
     pub dir: PathBuf,
