@@ -301,6 +301,17 @@ impl Writer<'_> {
         }
     }
 
+    /// `,` and `v` as a canonical signed decimal. Not inlined: one call per field keeps a line's
+    /// encoder small (the background line's).
+    #[inline(never)]
+    fn field(&mut self, v: i64) {
+        self.byte(b',');
+        if v < 0 {
+            self.byte(b'-');
+        }
+        self.unsigned(v.unsigned_abs());
+    }
+
     fn signed(&mut self, v: i16) {
         if v < 0 {
             self.byte(b'-');

@@ -487,7 +487,7 @@ pub fn background_marks(l: &BackgroundLine) -> Vec<(char, f64)> {
         .iter()
         .enumerate()
         .filter(|(_, b)| b.is_directional())
-        .map(|(k, b)| (background_mark(k), f64::from(b.direction_deg())))
+        .map(|(k, b)| (background_mark(k), f64::from(b.direction_tenths) / 10.0))
         .collect()
 }
 

@@ -36,7 +36,7 @@
 //! monitor of that age counts one corrupt line per background line and goes on.
 
 use super::{
-    azimuth_to_tenths, checked_payload, confidence_to_permille, parse_tenths, parse_u32,
+    checked_payload, parse_tenths, parse_u32,
     parse_unsigned, split_fields, DecodeError, Field, Writer, BACKGROUND_TAG,
     CONFIDENCE_MAX_PERMILLE, FRAME_TAG,
 };
@@ -90,17 +90,19 @@ impl WireBackgroundBand {
         let Some(b) = b else {
             return Self::default();
         };
-        let level = libm::roundf(b.level_db * 10.0);
+        // Rounded half away from zero by `as` (which saturates and maps NaN to 0): no software
+        // `roundf` in the firmware's flash.
+        let round = |v: f32| (v + 0.5f32.copysign(v)) as i32;
+        let tenths = round(b.direction_deg * 10.0).rem_euclid(3600);
         Self {
-            // `as` saturates and maps NaN to 0; at least 1: the band has evidence.
-            frames: (libm::roundf(b.frames) as u32).max(1),
-            direction_tenths: azimuth_to_tenths(b.direction_deg),
-            directivity_permille: confidence_to_permille(b.directivity),
-            level_tenths_db: if level.is_nan() {
-                0
-            } else {
-                level.clamp(f32::from(LEVEL_MIN_TENTHS), f32::from(LEVEL_MAX_TENTHS)) as i16
-            },
+            // At least 1: the band has evidence.
+            frames: ((b.frames + 0.5) as u32).max(1),
+            direction_tenths: (if tenths > 1800 { tenths - 3600 } else { tenths }) as i16,
+            directivity_permille: round(b.directivity * 1000.0)
+                .clamp(0, i32::from(CONFIDENCE_MAX_PERMILLE)) as u16,
+            level_tenths_db: round(b.level_db * 10.0)
+                .clamp(i32::from(LEVEL_MIN_TENTHS), i32::from(LEVEL_MAX_TENTHS))
+                as i16,
         }
     }
 
@@ -187,19 +189,17 @@ pub fn encode_background(line: &BackgroundLine, out: &mut [u8; MAX_BGF_LINE]) ->
         } else {
             WireBackgroundBand::default()
         };
-        w.byte(b',');
-        w.unsigned(u64::from(b.frames));
-        w.byte(b',');
-        w.signed(
-            b.direction_tenths
-                .clamp(super::AZIMUTH_MIN_TENTHS, super::AZIMUTH_MAX_TENTHS),
-        );
-        w.byte(b',');
-        w.unsigned(u64::from(
-            b.directivity_permille.min(CONFIDENCE_MAX_PERMILLE),
-        ));
-        w.byte(b',');
-        w.signed(b.level_tenths_db.clamp(LEVEL_MIN_TENTHS, LEVEL_MAX_TENTHS));
+        for v in [
+            i64::from(b.frames),
+            i64::from(
+                b.direction_tenths
+                    .clamp(super::AZIMUTH_MIN_TENTHS, super::AZIMUTH_MAX_TENTHS),
+            ),
+            i64::from(b.directivity_permille.min(CONFIDENCE_MAX_PERMILLE)),
+            i64::from(b.level_tenths_db.clamp(LEVEL_MIN_TENTHS, LEVEL_MAX_TENTHS)),
+        ] {
+            w.field(v);
+        }
     }
     w.finish()
 }
