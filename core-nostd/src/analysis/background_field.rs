@@ -385,19 +385,23 @@ pub fn background_direction(y: &Feature) -> (f32, f32) {
         norm2 += z * z;
     }
     let directivity = crate::fast_math::sqrtf(norm2) * (1.0 / PLANE_WAVE_NORM);
-    let directivity = if directivity < 1.0 {
-        directivity
-    } else {
-        1.0
-    };
+    let directivity = if directivity < 1.0 { directivity } else { 1.0 };
     let direction = if norm2 > 0.0 {
         libm::atan2f(yy, x).to_degrees()
     } else {
         0.0
     };
     (
-        if direction <= -180.0 { 180.0 } else { direction },
-        if directivity.is_finite() { directivity } else { 0.0 },
+        if direction <= -180.0 {
+            180.0
+        } else {
+            direction
+        },
+        if directivity.is_finite() {
+            directivity
+        } else {
+            0.0
+        },
     )
 }
 
@@ -560,7 +564,10 @@ mod tests {
         // Equal powers of a source from 40° and of diffuse noise: halfway.
         let (_, x) = wave(40.0, Complex32::new(1.0, 0.0));
         let (dir, d) = background_direction(&x.map(|c| 0.5 * c.re + 0.25));
-        assert!((dir - 40.0).abs() < 0.01 && (d - 0.5).abs() < 1e-3, "{dir} {d}");
+        assert!(
+            (dir - 40.0).abs() < 0.01 && (d - 0.5).abs() < 1e-3,
+            "{dir} {d}"
+        );
         // A learned state: the test background from 40°.
         let mut s = state();
         assert_eq!(s.band_summary(0), None);

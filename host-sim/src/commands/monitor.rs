@@ -12,8 +12,7 @@ use crate::io::estimate_output::Format;
 use crate::io::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
 use crate::serial::monitor::{
     background_plain_line, calibration_plain_line, plain_line, render, tracks_plain_line, Decoder,
-    RateMeter, Recorder,
-    View, FULL_VIEW,
+    RateMeter, Recorder, View, FULL_VIEW,
 };
 use cma_core::wire::{BackgroundLine, CalibrationLine, Frame, Line, TracksLine};
 use std::io::{IsTerminal, Write};

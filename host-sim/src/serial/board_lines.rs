@@ -11,7 +11,9 @@
 use crate::error::{Result, SimError};
 use crate::io::wav_io::Recording;
 use cma_core::capsule_calibration::CapsuleEstimate;
-use cma_core::wire::{BackgroundLine, CalibrationLine, CalibrationSchedule, Frame, Line, TracksLine};
+use cma_core::wire::{
+    BackgroundLine, CalibrationLine, CalibrationSchedule, Frame, Line, TracksLine,
+};
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 
 /// Sample frames per block, as on the boards: a block completes at most one analysis hop, so a

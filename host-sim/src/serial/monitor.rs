@@ -31,11 +31,11 @@ use crate::error::{Result, SimError};
 use crate::io::estimate_output::{flag_names, Format};
 use crate::io::serial_link::DEFAULT_BAUD;
 use crate::localization::frame_estimates::CSV_HEADER;
-use cma_core::capsule_calibration::CAL_BANDS;
 use cma_core::background_field::{BG_BANDS, BG_BAND_EDGES_HZ};
+use cma_core::capsule_calibration::CAL_BANDS;
 use cma_core::wire::{
-    self, AssemblerStats, BackgroundLine, CalibrationLine, DecodeError, Frame, Line,
-    LineAssembler, TracksLine, WireBackgroundBand, MAX_ANY_LINE, MAX_LINE, PART_SCALE,
+    self, AssemblerStats, BackgroundLine, CalibrationLine, DecodeError, Frame, Line, LineAssembler,
+    TracksLine, WireBackgroundBand, MAX_ANY_LINE, MAX_LINE, PART_SCALE,
 };
 use cma_core::Flags;
 use cma_core::CARDIOIDS;
@@ -1182,7 +1182,11 @@ mod tests {
             if has_rose {
                 // Title, blank, 17 rows of rose, self-calibration, background, legend, status.
                 assert_eq!(lines.len(), 23);
-                assert!(lines[20].starts_with("background: L <1 kHz "), "{}", lines[20]);
+                assert!(
+                    lines[20].starts_with("background: L <1 kHz "),
+                    "{}",
+                    lines[20]
+                );
                 assert!(
                     lines[19].starts_with("selfcal 0.83  gain "),
                     "{}",

@@ -36,9 +36,8 @@
 //! monitor of that age counts one corrupt line per background line and goes on.
 
 use super::{
-    checked_payload, parse_tenths, parse_u32,
-    parse_unsigned, split_fields, DecodeError, Field, Writer, BACKGROUND_TAG,
-    CONFIDENCE_MAX_PERMILLE, FRAME_TAG,
+    checked_payload, parse_tenths, parse_u32, parse_unsigned, split_fields, DecodeError, Field,
+    Writer, BACKGROUND_TAG, CONFIDENCE_MAX_PERMILLE, FRAME_TAG,
 };
 use crate::background_field::{BackgroundBand, BG_BANDS};
 
@@ -99,7 +98,8 @@ impl WireBackgroundBand {
             frames: ((b.frames + 0.5) as u32).max(1),
             direction_tenths: (if tenths > 1800 { tenths - 3600 } else { tenths }) as i16,
             directivity_permille: round(b.directivity * 1000.0)
-                .clamp(0, i32::from(CONFIDENCE_MAX_PERMILLE)) as u16,
+                .clamp(0, i32::from(CONFIDENCE_MAX_PERMILLE))
+                as u16,
             level_tenths_db: round(b.level_db * 10.0)
                 .clamp(i32::from(LEVEL_MIN_TENTHS), i32::from(LEVEL_MAX_TENTHS))
                 as i16,
@@ -450,7 +450,10 @@ mod tests {
             frames: 0.2,
         };
         let w = WireBackgroundBand::from_summary(Some(&odd));
-        assert_eq!((w.frames, w.direction_tenths, w.level_tenths_db), (1, 0, -2000));
+        assert_eq!(
+            (w.frames, w.direction_tenths, w.level_tenths_db),
+            (1, 0, -2000)
+        );
     }
 
     proptest! {
