@@ -329,6 +329,29 @@ mod tests {
         assert_eq!(decode_background(&bytes), Ok(sample()));
         assert_eq!(decode_line(&bytes), Ok(Line::Background(sample())));
         const { assert!(MAX_BGF_LINE <= MAX_ANY_LINE) };
+        // The examples of docs/wire-format.md.
+        let doc = BackgroundLine {
+            bands: [
+                sample().bands[0],
+                WireBackgroundBand {
+                    frames: 100,
+                    direction_tenths: -1234,
+                    directivity_permille: 120,
+                    level_tenths_db: -601,
+                },
+            ],
+            ..sample()
+        };
+        assert_eq!(
+            encoded(&doc),
+            b"$BGF,1,3,480256,100,312,450,-523,100,-1234,120,-601*E403\r\n"
+        );
+        let first = BackgroundLine {
+            seq: 0,
+            centre_sample: 256,
+            ..BackgroundLine::default()
+        };
+        assert_eq!(encoded(&first), b"$BGF,1,0,256,0,0,0,0,0,0,0,0*466B\r\n");
         let widest = BackgroundLine {
             seq: u32::MAX,
             centre_sample: u64::MAX,
