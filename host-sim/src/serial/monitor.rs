@@ -645,9 +645,12 @@ pub fn draw_rose(azimuth_deg: Option<f64>, raw_deg: Option<f64>, confidence: f64
     draw_rose_with_talkers(azimuth_deg, raw_deg, confidence, &[])
 }
 
-/// Radius (share of the ring's) of the background sources' marks: inside the talkers' (0.7), under
-/// the needle, which is drawn over them.
-const BACKGROUND_RADIUS: f64 = 0.5;
+/// Radius (share of the ring's) of the lowest band's background mark; each higher band's is
+/// [`BACKGROUND_RADIUS_STEP`] further out, so that the bands' marks of one source do not cover each
+/// other. Inside the talkers' (0.7), under the needle, which is drawn over them.
+const BACKGROUND_RADIUS: f64 = 0.4;
+/// Radius step between the bands' background marks.
+const BACKGROUND_RADIUS_STEP: f64 = 0.15;
 
 /// [`draw_rose`] with one mark per active talker of a track line: the last digit of its ID at
 /// 0.7 of the radius in its direction.
@@ -661,8 +664,9 @@ pub fn draw_rose_with_talkers(
     draw_rose_with_marks(azimuth_deg, raw_deg, confidence, talkers, &[])
 }
 
-/// [`draw_rose_with_talkers`] with the background sources' marks ([`background_marks`]) at half
-/// the radius in their directions, drawn first (the needle and the talkers cover them).
+/// [`draw_rose_with_talkers`] with the background sources' marks ([`background_marks`]) in their
+/// directions, `L` at 0.4 of the radius and `H` at 0.55, drawn first (the needle and the talkers
+/// cover them).
 #[must_use]
 pub fn draw_rose_with_marks(
     azimuth_deg: Option<f64>,
@@ -706,7 +710,17 @@ pub fn draw_rose_with_marks(
     label(&mut grid, 2 * r, cx - 1, "180");
     grid[cy as usize][cx as usize] = 'o';
     for &(mark, az) in background {
-        put(&mut grid, az, BACKGROUND_RADIUS, mark);
+        let step = match mark {
+            'L' => 0.0,
+            'M' => 0.5,
+            _ => 1.0,
+        };
+        put(
+            &mut grid,
+            az,
+            BACKGROUND_RADIUS + step * BACKGROUND_RADIUS_STEP,
+            mark,
+        );
     }
     if let Some(az) = azimuth_deg {
         // A confident needle is drawn solid, a doubtful one dotted.
@@ -1245,6 +1259,10 @@ mod tests {
         let row = &rose[changed[0]];
         assert!(changed[0] < ROSE_R as usize && row.contains('L'), "{row}");
         assert!(row.find('L').unwrap() < (2 * ROSE_R + 4) as usize, "{row}");
+        // Both bands' marks of one source stay visible.
+        let both = draw_rose_with_marks(None, None, 0.0, &[], &[('L', 90.0), ('H', 90.0)]);
+        let middle = &both[ROSE_R as usize];
+        assert!(middle.contains('L') && middle.contains('H'), "{middle}");
         // Decoded and counted, not as frames.
         let mut buf = [0u8; wire::MAX_BGF_LINE];
         let n = wire::encode_background(&l, &mut buf);
