@@ -19,6 +19,7 @@
 
 use crate::alternative_result::AlternativeResult;
 use crate::angle::wrap_deg;
+use crate::background_field::BackgroundBand;
 use crate::capsule_calibration::CapsuleEstimate;
 use crate::config::{LocatorConfig, Method};
 use crate::curve_tracker::CurveTracker;
@@ -287,6 +288,14 @@ impl<'t> Locator<'t> {
     #[must_use]
     pub fn capsule_confidence(&self) -> f32 {
         self.similarity.capsule_confidence()
+    }
+
+    /// The stationary background per band ([`BG_BANDS`](crate::background_field::BG_BANDS)):
+    /// direction, directivity, level and evidence of each band's background, `None` for a band
+    /// without evidence (the stage off, or no background frame yet). Read-only.
+    #[must_use]
+    pub fn background_field(&self) -> [Option<BackgroundBand>; crate::background_field::BG_BANDS] {
+        self.similarity.background_field().summary()
     }
 
     /// The multi-talker tracks after the last frame (live tracks, active or not; none when the

@@ -1,12 +1,15 @@
 //! The application: a DSP task (capture → core → estimates) and a UART task (estimates → frame lines,
-//! self-calibration snapshots → calibration lines), the same on every board.
+//! self-calibration snapshots → calibration lines, background-field snapshots → background
+//! lines), the same on every board.
 //!
 //! ```text
 //! Board::Audio ─blocks─▶ dsp_task ─ Locator ─▶ OUTGOING (bounded) ─▶ uart_task ─▶ Board::Link
 //!  (SampleSource)             │ overruns counted,                │ full: line dropped, counted
 //!                             │ watchdog petted per block read   │ one `$CMA,…` line per estimate,
-//!                             └ self-calibration snapshot at     └ one `$CAL,…` line per snapshot
-//!                               start and every 10 s
+//!                             ├ self-calibration snapshot at     ├ one `$CAL,…` line per snapshot
+//!                             │ start and every 10 s             │
+//!                             └ background-field snapshot one    └ one `$BGF,…` line per snapshot
+//!                               hop after each of those
 //! ```
 //!
 //! It sees the board only through the board contract, [`crate::board_api::Board`], and the
@@ -31,7 +34,7 @@ use crate::stats::Counters;
 use crate::stored_capsules;
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::capsule_estimate_record::key_of;
-use cma_core::wire::{self, CalibrationLine, CalibrationSchedule, TracksLine};
+use cma_core::wire::{self, BackgroundLine, CalibrationLine, CalibrationSchedule, TracksLine};
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable, CHANNELS};
 use embassy_executor::Spawner;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
@@ -76,6 +79,9 @@ enum Outgoing {
     /// The active multi-talker tracks after an estimate → one track line (its `seq` is set when
     /// it is sent).
     Tracks(TracksLine),
+    /// The stationary background per band → one background line (its `seq` is set when it is
+    /// sent).
+    Background(BackgroundLine),
 }
 
 static OUTGOING: Channel<CriticalSectionRawMutex, Outgoing, QUEUE_LEN> = Channel::new();
@@ -200,6 +206,16 @@ fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
     }
 }
 
+/// Queues a snapshot of the background field for a background line; a full queue drops it
+/// (counted in the frame lines' `drop`). Not inlined: it runs every 10 s, outside the hop's work.
+#[inline(never)]
+fn send_background(locator: &Locator<'_>, centre_sample: u64) {
+    let line = BackgroundLine::from_summary(&locator.background_field(), 0, centre_sample);
+    if OUTGOING.try_send(Outgoing::Background(line)).is_err() {
+        COUNTERS.count_dropped();
+    }
+}
+
 /// Captures blocks, runs the localizer, queues the estimates.
 ///
 /// Real-time contract: each call of `AudioIn::read` returns [`BLOCK_FRAMES`] sample frames; the
@@ -213,7 +229,9 @@ fn send_calibration(locator: &Locator<'_>, centre_sample: u64) {
 /// Before the first block and then after the first estimate at least
 /// [`wire::CALIBRATION_PERIOD_S`] seconds after the previous one ([`CalibrationSchedule`]), the
 /// self-calibration's estimate is copied (≈ 0.1 KB, outside the localizer's per-hop work) and queued
-/// the same way; a full queue drops it and counts it in the calibration line's `drop` field.
+/// the same way; a full queue drops it and counts it in the calibration line's `drop` field. The
+/// background field's summary follows one hop later (after the next estimate, so that the two
+/// lines do not share a hop's slack on the UART) as a background line.
 /// At a snapshot the [`SavePolicy`] may decide to save the estimate to the store, which happens
 /// [`SAVE_DELAY_BLOCKS`] blocks later.
 #[embassy_executor::task]
@@ -226,8 +244,11 @@ async fn dsp_task(
     let mut block = [[0.0f32; CHANNELS]; BLOCK_FRAMES];
     let mut schedule = CalibrationSchedule::new(SAMPLE_RATE_HZ);
     let mut save_in_blocks: Option<u8> = None;
+    // A background line is due at the next estimate after a calibration line.
+    let mut background_due = false;
     if schedule.due(0) {
         send_calibration(locator, 0);
+        background_due = true;
     }
     watchdog.unleash();
     audio.start();
@@ -258,8 +279,13 @@ async fn dsp_task(
                 COUNTERS.count_dropped();
             }
         }
+        if let (true, Some(centre_sample)) = (background_due, estimated) {
+            send_background(locator, centre_sample);
+            background_due = false;
+        }
         if let Some(centre_sample) = calibration_due {
             send_calibration(locator, centre_sample);
+            background_due = true;
             if let Some((_, policy)) = persistence.as_mut() {
                 if save_due(policy, locator, centre_sample) {
                     save_in_blocks = Some(SAVE_DELAY_BLOCKS);
@@ -329,6 +355,7 @@ const _: () = assert!(
     wire::MAX_ANY_LINE >= wire::MAX_LINE
         && wire::MAX_ANY_LINE >= wire::MAX_CAL_LINE
         && wire::MAX_ANY_LINE >= wire::MAX_TRK_LINE
+        && wire::MAX_ANY_LINE >= wire::MAX_BGF_LINE
 );
 
 /// Encodes queued estimates as frame lines and self-calibration snapshots as calibration lines, and
@@ -341,6 +368,7 @@ async fn uart_task(mut uart: FrameTx) {
     let mut seq: u32 = 0;
     let mut calibration_seq: u32 = 0;
     let mut tracks_seq: u32 = 0;
+    let mut background_seq: u32 = 0;
     loop {
         let n = match OUTGOING.receive().await {
             Outgoing::Estimate(e) => {
@@ -380,6 +408,14 @@ async fn uart_task(mut uart: FrameTx) {
                 tracks_seq = tracks_seq.wrapping_add(1);
                 match line.first_chunk_mut::<{ wire::MAX_TRK_LINE }>() {
                     Some(buf) => wire::encode_tracks(&tracks, buf),
+                    None => 0, // cannot happen: see the assertion above
+                }
+            }
+            Outgoing::Background(mut background) => {
+                background.seq = background_seq;
+                background_seq = background_seq.wrapping_add(1);
+                match line.first_chunk_mut::<{ wire::MAX_BGF_LINE }>() {
+                    Some(buf) => wire::encode_background(&background, buf),
                     None => 0, // cannot happen: see the assertion above
                 }
             }

@@ -1,11 +1,12 @@
 //! cargo-fuzz target: arbitrary bytes through the line assembler and the decoders (frame line,
-//! calibration line, track line, any kind) must never panic, and every accepted line must re-encode to
+//! calibration line, track line, background line, any kind) must never panic, and every accepted line must re-encode to
 //! exactly the bytes received (canonical format).
 #![no_main]
 
 use cma_core::wire::{
-    decode, decode_calibration, decode_line, decode_tracks, encode, encode_calibration,
-    encode_tracks, Line, LineAssembler, MAX_ANY_LINE, MAX_CAL_LINE, MAX_LINE, MAX_TRK_LINE,
+    decode, decode_background, decode_calibration, decode_line, decode_tracks, encode,
+    encode_background, encode_calibration, encode_tracks, Line, LineAssembler, MAX_ANY_LINE,
+    MAX_BGF_LINE, MAX_CAL_LINE, MAX_LINE, MAX_TRK_LINE,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -27,6 +28,11 @@ fn reencoded(line: &Line) -> Vec<u8> {
             let n = encode_tracks(t, &mut buf);
             buf[..n - 2].to_vec()
         }
+        Line::Background(b) => {
+            let mut buf = [0u8; MAX_BGF_LINE];
+            let n = encode_background(b, &mut buf);
+            buf[..n - 2].to_vec()
+        }
     }
 }
 
@@ -34,6 +40,7 @@ fuzz_target!(|data: &[u8]| {
     let _ = decode(data);
     let _ = decode_calibration(data);
     let _ = decode_tracks(data);
+    let _ = decode_background(data);
     let _ = decode_line(data);
     let mut asm = LineAssembler::<MAX_ANY_LINE>::new();
     asm.push_chunk(data, |line| {
@@ -55,6 +62,10 @@ fuzz_target!(|data: &[u8]| {
         match decode_tracks(line) {
             Ok(t) => assert_eq!(any, Ok(Line::Tracks(t))),
             Err(_) => assert!(!matches!(any, Ok(Line::Tracks(_)))),
+        }
+        match decode_background(line) {
+            Ok(b) => assert_eq!(any, Ok(Line::Background(b))),
+            Err(_) => assert!(!matches!(any, Ok(Line::Background(_)))),
         }
     });
 });

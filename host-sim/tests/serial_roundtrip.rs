@@ -5,7 +5,9 @@
 use cma_core::wire::Line;
 use cma_core::wire::{self, Frame, MAX_LINE};
 use host_sim::localization::frame_estimates::{self, CSV_HEADER};
-use host_sim::serial::monitor::{calibration_plain_line, plain_line, tracks_plain_line};
+use host_sim::serial::monitor::{
+    background_plain_line, calibration_plain_line, plain_line, tracks_plain_line,
+};
 use std::collections::{BTreeSet, HashMap};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -379,6 +381,7 @@ fn emit_to_monitor_carries_calibration_lines() {
             Line::Frame(f) => plain_line(f),
             Line::Calibration(c) => calibration_plain_line(c),
             Line::Tracks(t) => tracks_plain_line(t),
+            Line::Background(b) => background_plain_line(b),
         })
         .collect();
     let got: Vec<&str> = stdout.lines().collect();
@@ -387,10 +390,23 @@ fn emit_to_monitor_carries_calibration_lines() {
         .iter()
         .filter_map(|l| match l {
             Line::Calibration(c) => Some(*c),
-            Line::Frame(_) | Line::Tracks(_) => None,
+            Line::Frame(_) | Line::Tracks(_) | Line::Background(_) => None,
         })
         .collect();
-    let n_frames = sent.len() - cals.len();
+    let backgrounds: Vec<_> = sent
+        .iter()
+        .filter_map(|l| match l {
+            Line::Background(b) => Some(*b),
+            _ => None,
+        })
+        .collect();
+    let n_frames = sent.len() - cals.len() - backgrounds.len();
+    // A background line one estimate after each calibration line.
+    assert_eq!(backgrounds.len(), 2, "{backgrounds:?}");
+    assert!(matches!(sent[2], Line::Background(b) if b.seq == 0));
+    assert_eq!(backgrounds[1].seq, 1);
+    assert!(backgrounds[1].centre_sample > cals[1].centre_sample);
+    assert_eq!(counters["background_lines"], 2);
     assert_eq!(cals.len(), 2, "{cals:?}");
     assert!(matches!(sent[0], Line::Calibration(c) if c.seq == 0 && c.centre_sample == 0));
     assert_eq!(cals[1].seq, 1);
@@ -444,6 +460,7 @@ fn emit_to_monitor_carries_track_lines() {
             Line::Frame(f) => plain_line(f),
             Line::Calibration(c) => calibration_plain_line(c),
             Line::Tracks(t) => tracks_plain_line(t),
+            Line::Background(b) => background_plain_line(b),
         })
         .collect();
     assert_eq!(stdout.lines().collect::<Vec<_>>(), want);

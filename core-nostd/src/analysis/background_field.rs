@@ -349,6 +349,131 @@ impl BackgroundFieldState {
     }
 }
 
+/// Directivity above which a band's background is shown with a direction (a source dominates);
+/// at or below it the background is shown as diffuse ([`BackgroundBand::is_directional`]). A plane
+/// wave mixed with diffuse noise of equal power measures about 0.5, of 4× its power about 0.2.
+pub const DIRECTIONAL_MIN: f32 = 0.3;
+
+/// Σ w(n)² of the analysis window (the symmetric Hamming window of [`crate::FRAME_LEN`] = 512
+/// samples: 512·0.54² − 2·0.54·0.46·1 + 0.46²·256.5 = 203.0778).
+const WINDOW_POWER_SUM: f32 = 203.0778;
+
+/// Factor from a band's summed omni bin power Σ|X_k|² (the unnormalised FFT of the windowed frame,
+/// samples at full scale ±1) to the band's mean-square power: 2/(N·Σw²) by Parseval (each bin
+/// stands for itself and its mirror).
+const BIN_POWER_TO_MEAN_SQUARE: f32 = 2.0 / (crate::FRAME_LEN as f32 * WINDOW_POWER_SUM);
+
+/// Norm of the zero-mean part of a plane wave's active ratios on the ideal array:
+/// ½·√(Σ_c cos²(θ − φ_c)) = ½·√(3/2), whatever θ.
+const PLANE_WAVE_NORM: f32 = 0.612_372_4;
+
+/// One band's stationary background as an installer reads it: where its net intensity comes from,
+/// how directional it is, how loud, and on how many frames that rests
+/// ([`BackgroundFieldState::band_summary`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BackgroundBand {
+    /// Direction of the background's net intensity, degrees in (−180, 180], counter-clockwise
+    /// from cardioid 1 like the estimates: atan2(y, x) of x = Σ_c z_c·cos φ_c,
+    /// y = Σ_c z_c·sin φ_c, where z is the band's mean active ratios minus their mean and
+    /// φ_c = 0°, 120°, 240° the cardioids' looks. Meaningless when the directivity is near 0.
+    pub direction_deg: f32,
+    /// Norm of z relative to a plane wave's (½·√(3/2) ≈ 0.612), clamped to [0, 1]: 1 a single
+    /// source (plane wave), 0 diffuse (ideal array: z = 0), between a source in diffuse noise.
+    pub directivity: f32,
+    /// The band's background level: 10·log10 of its omni power floor, as a mean-square power
+    /// relative to full scale (a signal of mean square 1, samples in ±1; a full-scale sine is
+    /// −3 dB) — the floor of Σ|X_k|² over the band's bins within the analysis band, converted by
+    /// Parseval (2/(N·Σw²)) so that it compares with the estimates' `power` (mean-square omni power
+    /// of the frame, all frequencies).
+    pub level_db: f32,
+    /// Background frames the means rest on (saturates at [`BackgroundField::memory_frames`]).
+    pub frames: f32,
+}
+
+impl BackgroundBand {
+    /// Whether a source dominates the band: directivity above [`DIRECTIONAL_MIN`].
+    #[must_use]
+    pub fn is_directional(&self) -> bool {
+        self.directivity > DIRECTIONAL_MIN
+    }
+}
+
+/// Direction (degrees) and directivity of mean active ratios `y` of the cardioids looking at 0°,
+/// 120°, 240° ([`BackgroundBand`]).
+#[must_use]
+pub fn background_direction(y: &Feature) -> (f32, f32) {
+    const COS: [f32; CARDIOIDS] = [1.0, -0.5, -0.5];
+    const SIN: [f32; CARDIOIDS] = [0.0, 0.866_025_4, -0.866_025_4];
+    let mean = (y[0] + y[1] + y[2]) * (1.0 / 3.0);
+    let (mut x, mut yy, mut norm2) = (0.0f32, 0.0f32, 0.0f32);
+    for c in 0..CARDIOIDS {
+        let z = y[c] - mean;
+        x += z * COS[c];
+        yy += z * SIN[c];
+        norm2 += z * z;
+    }
+    let directivity = crate::fast_math::sqrtf(norm2) * (1.0 / PLANE_WAVE_NORM);
+    let directivity = if directivity < 1.0 { directivity } else { 1.0 };
+    let direction = if norm2 > 0.0 {
+        libm::atan2f(yy, x).to_degrees()
+    } else {
+        0.0
+    };
+    (
+        if direction <= -180.0 {
+            180.0
+        } else {
+            direction
+        },
+        if directivity.is_finite() {
+            directivity
+        } else {
+            0.0
+        },
+    )
+}
+
+/// 10·log10(`p`) for a positive normal `p`, within 10⁻³ dB: the exponent from the bits and
+/// ln of the mantissa m ∈ [1, 2) by 2·atanh((m − 1)/(m + 1)) to the 7th power (a display's
+/// level; `libm::log10f` costs ≈ 0.2 KB more of Cortex-M4F flash).
+fn power_db(p: f32) -> f32 {
+    let bits = p.to_bits();
+    let e = ((bits >> 23) & 0xFF) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007F_FFFF) | 0x3F80_0000);
+    let t = (m - 1.0) / (m + 1.0);
+    let t2 = t * t;
+    let ln_m = 2.0 * t * (1.0 + t2 * (1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (1.0 / 7.0))));
+    // 10·log10(2) and 10·log10(e).
+    3.010_3 * e as f32 + 4.342_944_8 * ln_m
+}
+
+impl BackgroundFieldState {
+    /// Band `band`'s background ([`BackgroundBand`]) from its running means and floor; `None`
+    /// without evidence (the stage off, no background frame yet, or no such band). Read-only:
+    /// reading it changes nothing.
+    #[must_use]
+    pub fn band_summary(&self, band: usize) -> Option<BackgroundBand> {
+        let m = self.means.get(band)?;
+        let floor = self.floor.get(band)?.floor();
+        if !(m.n > 0.0) || !(floor > 0.0) || !floor.is_finite() {
+            return None;
+        }
+        let (direction_deg, directivity) = background_direction(&m.active);
+        Some(BackgroundBand {
+            direction_deg,
+            directivity,
+            level_db: power_db(floor * BIN_POWER_TO_MEAN_SQUARE),
+            frames: m.n,
+        })
+    }
+
+    /// Every band's [`BackgroundFieldState::band_summary`], lowest band first.
+    #[must_use]
+    pub fn summary(&self) -> [Option<BackgroundBand>; BG_BANDS] {
+        core::array::from_fn(|b| self.band_summary(b))
+    }
+}
+
 fn clamp0(v: f32) -> f32 {
     if v > 0.0 {
         v
@@ -449,5 +574,72 @@ mod tests {
             ..BackgroundField::DEFAULT
         }
         .is_valid());
+    }
+
+    /// The summary of a plane-wave background points at its source with directivity 1; diffuse
+    /// means (½ each) have directivity 0; a mix lies between.
+    #[test]
+    fn the_summary_points_at_a_plane_wave_and_calls_diffuse_diffuse() {
+        for az in [40.0f32, -150.0, 180.0, 0.0] {
+            let (_, x) = wave(az, Complex32::new(1.0, 0.0));
+            let (dir, d) = background_direction(&x.map(|c| c.re));
+            let err = libm::fmodf(dir - az + 540.0, 360.0) - 180.0;
+            assert!(err.abs() < 0.01, "{az}: {dir}");
+            assert!((d - 1.0).abs() < 1e-4, "{az}: {d}");
+        }
+        let (_, d) = background_direction(&[0.5; 3]);
+        assert!(d.abs() < 1e-6);
+        // Equal powers of a source from 40° and of diffuse noise: halfway.
+        let (_, x) = wave(40.0, Complex32::new(1.0, 0.0));
+        let (dir, d) = background_direction(&x.map(|c| 0.5 * c.re + 0.25));
+        assert!(
+            (dir - 40.0).abs() < 0.01 && (d - 0.5).abs() < 1e-3,
+            "{dir} {d}"
+        );
+        // A learned state: the test background from 40°.
+        let mut s = state();
+        assert_eq!(s.band_summary(0), None);
+        let mut rng = Lcg(5);
+        for _ in 0..200 {
+            let mut power = [0.0f32; NUM_BINS];
+            let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 2];
+            for (i, &k) in [20usize, 100].iter().enumerate() {
+                let ph = core::f32::consts::TAU * rng.unit();
+                let (w, x) = wave(40.0, Complex32::new(libm::cosf(ph), libm::sinf(ph)));
+                power[k] = w.norm_sqr();
+                peaks[i] = (w, x);
+            }
+            s.begin_frame(&power, 10, 300, true);
+            for (&k, (w, x)) in [20usize, 100].iter().zip(&peaks) {
+                s.add_peak(k, *w, x);
+            }
+            s.end_frame();
+        }
+        for b in s.summary() {
+            let b = b.expect("evidence in both bands");
+            assert!((b.direction_deg - 40.0).abs() < 0.5, "{b:?}");
+            assert!(b.directivity > 0.99 && b.is_directional(), "{b:?}");
+            assert_eq!(b.frames, 100.0);
+            // One bin of power 1: 2/(512·203.08) ≈ −47.16 dB re full-scale mean square.
+            assert!((b.level_db + 47.16).abs() < 0.05, "{b:?}");
+        }
+    }
+
+    /// The level's logarithm agrees with `log10f` over the range of band powers.
+    #[test]
+    fn power_db_agrees_with_log10() {
+        let mut p = 1e-30f32;
+        while p < 1e30 {
+            let want = 10.0 * f64::from(p).log10();
+            assert!((f64::from(power_db(p)) - want).abs() < 1e-3, "{p}");
+            p *= 1.37;
+        }
+    }
+
+    /// The window constant is the analysis window's Σw².
+    #[test]
+    fn window_power_sum_is_the_hamming_windows() {
+        let sum: f32 = crate::tables::HAMMING_512.iter().map(|w| w * w).sum();
+        assert!((sum - WINDOW_POWER_SUM).abs() < 2e-3, "{sum}");
     }
 }

@@ -57,12 +57,24 @@
 //! A third line type, the *track line* (`$TRK,…`, its own version), carries the active
 //! multi-talker tracks of a frame ([`encode_tracks`], `wire/tracks.rs`, `docs/wire-format.md`);
 //! the frame and calibration decoders reject it with [`DecodeError::TracksLine`].
+//!
+//! A fourth line type, the *background line* (`$BGF,…`, its own version), carries the stationary
+//! background per band — direction, directivity, level and evidence of the room's steady sources
+//! ([`encode_background`], `wire/background.rs`, `docs/wire-format.md`); the board sends one every
+//! [`CALIBRATION_PERIOD_S`] seconds, and the other decoders reject it with
+//! [`DecodeError::BackgroundLine`]. A decoder older than a line type rejects it as
+//! [`DecodeError::BadPrefix`] (an unknown line) and goes on with the next line.
 
 use crate::estimate::{Estimate, Flags};
 use core::fmt;
 
+mod background;
 mod calibration;
 mod tracks;
+pub use background::{
+    decode_background, encode_background, BackgroundLine, WireBackgroundBand, BACKGROUND_FIELDS,
+    BACKGROUND_VERSION, LEVEL_MAX_TENTHS, LEVEL_MIN_TENTHS, MAX_BGF_LINE,
+};
 pub use calibration::{
     decode_calibration, decode_line, encode_calibration, part_to_wire, peaks_to_wire,
     CalibrationBand, CalibrationLine, CalibrationSchedule, Line, BAND_FIELDS, CALIBRATION_FIELDS,
@@ -289,6 +301,17 @@ impl Writer<'_> {
         }
     }
 
+    /// `,` and `v` as a canonical signed decimal. Not inlined: one call per field keeps a line's
+    /// encoder small (the background line's).
+    #[inline(never)]
+    fn field(&mut self, v: i64) {
+        self.byte(b',');
+        if v < 0 {
+            self.byte(b'-');
+        }
+        self.unsigned(v.unsigned_abs());
+    }
+
     fn signed(&mut self, v: i16) {
         if v < 0 {
             self.byte(b'-');
@@ -412,6 +435,26 @@ pub enum Field {
         /// Track, 0 = first in the line.
         track: u8,
     },
+    /// `n` (background frames) of a background line's band.
+    BackgroundFrames {
+        /// Band, 0 = lowest.
+        band: u8,
+    },
+    /// `az` (direction) of a background line's band.
+    BackgroundDirection {
+        /// Band, 0 = lowest.
+        band: u8,
+    },
+    /// `dir` (directivity) of a background line's band.
+    BackgroundDirectivity {
+        /// Band, 0 = lowest.
+        band: u8,
+    },
+    /// `db` (level) of a background line's band.
+    BackgroundLevel {
+        /// Band, 0 = lowest.
+        band: u8,
+    },
 }
 
 impl Field {
@@ -438,6 +481,10 @@ impl Field {
             Field::TrackId { .. } => "id",
             Field::TrackAzimuth { .. } => "az",
             Field::TrackConfidence { .. } => "conf",
+            Field::BackgroundFrames { .. } => "n",
+            Field::BackgroundDirection { .. } => "az",
+            Field::BackgroundDirectivity { .. } => "dir",
+            Field::BackgroundLevel { .. } => "db",
         }
     }
 }
@@ -448,7 +495,11 @@ impl fmt::Display for Field {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "`{}`", self.name())?;
         match *self {
-            Field::Peaks { band } => write!(f, " of band {band}"),
+            Field::Peaks { band }
+            | Field::BackgroundFrames { band }
+            | Field::BackgroundDirection { band }
+            | Field::BackgroundDirectivity { band }
+            | Field::BackgroundLevel { band } => write!(f, " of band {band}"),
             Field::OmniPart { band, cardioid } | Field::DipolePart { band, cardioid } => {
                 write!(f, " of band {band}, cardioid {cardioid}")
             }
@@ -473,7 +524,7 @@ pub enum DecodeError {
     },
     /// The line does not start with `$`.
     MissingStart,
-    /// The line starts with none of `$CMA,`, `$CAL,` and `$TRK,`.
+    /// The line starts with none of `$CMA,`, `$CAL,`, `$TRK,` and `$BGF,`.
     BadPrefix,
     /// [`decode`] was given a calibration line (`$CAL,`, see [`decode_calibration`]).
     CalibrationLine,
@@ -481,6 +532,9 @@ pub enum DecodeError {
     FrameLine,
     /// [`decode`] or [`decode_calibration`] was given a track line (`$TRK,`, see [`decode_tracks`]).
     TracksLine,
+    /// [`decode`], [`decode_calibration`] or [`decode_tracks`] was given a background line
+    /// (`$BGF,`, see [`decode_background`]).
+    BackgroundLine,
     /// No `*` before the checksum.
     MissingChecksum,
     /// The checksum computed over the line differs from the one transmitted.
@@ -526,8 +580,11 @@ impl fmt::Display for DecodeError {
             }
             DecodeError::MissingStart => f.write_str("line does not start with `$`"),
             DecodeError::BadPrefix => f.write_str(
-                "unknown line: starts with none of `$CMA,` (frame), `$CAL,` (calibration) and `$TRK,` (tracks)",
+                "unknown line: starts with none of `$CMA,` (frame), `$CAL,` (calibration), `$TRK,` (tracks) and `$BGF,` (background)",
             ),
+            DecodeError::BackgroundLine => {
+                f.write_str("not a frame, calibration or track line (a `$BGF` background line)")
+            }
             DecodeError::TracksLine => {
                 f.write_str("not a frame or calibration line (a `$TRK` multi-talker track line)")
             }
@@ -619,6 +676,8 @@ pub const FRAME_TAG: &[u8] = b"CMA,";
 pub const CALIBRATION_TAG: &[u8] = b"CAL,";
 /// Tag of a track line ([`decode_tracks`]).
 pub const TRACKS_TAG: &[u8] = b"TRK,";
+/// Tag of a background line ([`decode_background`]).
+pub const BACKGROUND_TAG: &[u8] = b"BGF,";
 
 /// The checked part of a line: after `$`, `tag` and the checksum are verified, the payload
 /// `TAG,f1,…,fn` (without `$` and `*crc`). `other_tag` and `other` name the other line type.
@@ -641,6 +700,8 @@ fn checked_payload<'a>(
             other
         } else if body.starts_with(TRACKS_TAG) {
             DecodeError::TracksLine
+        } else if body.starts_with(BACKGROUND_TAG) {
+            DecodeError::BackgroundLine
         } else {
             DecodeError::BadPrefix
         });

@@ -443,6 +443,13 @@ impl SimilarityFrame {
         self.capsules.estimate()
     }
 
+    /// The measured stationary background (read-only; [`BackgroundFieldState::band_summary`]
+    /// gives each band's direction, directivity and level).
+    #[must_use]
+    pub fn background_field(&self) -> &BackgroundFieldState {
+        &self.background
+    }
+
     /// The self-calibration's confidence in [0, 1] (0 when it is off).
     #[must_use]
     pub fn capsule_confidence(&self) -> f32 {

@@ -1,6 +1,6 @@
 //! `host-sim emit`: a stand-in board. Runs the core on a WAV (exactly as `host-sim locate` does) and
 //! writes the lines a board would send to a serial port ([`crate::serial::board_lines`]: frame
-//! lines, calibration lines, and with `--multi-talker on` track lines).
+//! lines, calibration lines, background lines, and with `--multi-talker on` track lines).
 
 use crate::error::Result;
 use crate::flags::config_args::ConfigArgs;
@@ -65,6 +65,7 @@ pub fn run(a: &EmitArgs) -> Result<()> {
     let mut frame_buf = [0u8; MAX_LINE];
     let mut cal_buf = [0u8; MAX_CAL_LINE];
     let mut tracks_buf = [0u8; MAX_TRK_LINE];
+    let mut background_buf = [0u8; wire::MAX_BGF_LINE];
     let start = Instant::now();
     let (mut bytes, mut frames, mut calibrations) = (0usize, 0usize, 0usize);
     for line in &lines {
@@ -91,6 +92,10 @@ pub fn run(a: &EmitArgs) -> Result<()> {
             Line::Tracks(t) => {
                 let n = wire::encode_tracks(t, &mut tracks_buf);
                 &tracks_buf[..n]
+            }
+            Line::Background(b) => {
+                let n = wire::encode_background(b, &mut background_buf);
+                &background_buf[..n]
             }
         };
         serial_link::write_all(port.as_mut(), &a.port, bytes_of_line, WRITE_STALL)?;

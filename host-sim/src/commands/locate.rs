@@ -57,8 +57,10 @@ const LOCATE_AFTER_HELP: &str = concat!(
      (equal to azimuth_raw_deg; the previous row's azimuth, 0 at the start, when the frame has no \
      peak): it jumps from row to row and is not to be relied on. ",
     "Unless --quiet, stderr ends with a summary: the self-calibration's estimate per band (when \
-     it is on, 5 lines), then one line counting the frames, those with history and those with \
-     NaN/Inf input. Input with NaN/Inf samples (replaced by 0, flag 4 NON_FINITE) still exits 0, \
+     it is on, 5 lines), then the stationary background per band (when the background field is \
+     on: a band with directivity above 0.3 as a source at its azimuth, else diffuse; its level in \
+     dBFS, dB re full-scale mean square, and relative to the median power_db of the frames), then \
+     one line counting the frames, those with history and those with NaN/Inf input. Input with NaN/Inf samples (replaced by 0, flag 4 NON_FINITE) still exits 0, \
      with a warning line on stderr (also with --quiet).",
 );
 
@@ -139,6 +141,15 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         return Err(SimError::Usage(
             "--selfcal-out: the self-calibration is off (--selfcal off, the thesis preset or a measured table)".into(),
         ));
+    }
+    if config.background.enabled && !a.quiet {
+        eprintln!(
+            "{}",
+            frame_estimates::background_summary(
+                &located.background,
+                frame_estimates::median_power_db(&rows)
+            )
+        );
     }
     let write = |out: &mut dyn std::io::Write| match a.format {
         estimate_output::Format::Csv => frame_estimates::write_csv(out, &rows),

@@ -11,10 +11,10 @@ use crate::error::{Result, SimError};
 use crate::io::estimate_output::Format;
 use crate::io::serial_link::{self, Link, ReadOutcome, DEFAULT_BAUD};
 use crate::serial::monitor::{
-    calibration_plain_line, plain_line, render, tracks_plain_line, Decoder, RateMeter, Recorder,
-    View, FULL_VIEW,
+    background_plain_line, calibration_plain_line, plain_line, render, tracks_plain_line, Decoder,
+    RateMeter, Recorder, View, FULL_VIEW,
 };
-use cma_core::wire::{CalibrationLine, Frame, Line, TracksLine};
+use cma_core::wire::{BackgroundLine, CalibrationLine, Frame, Line, TracksLine};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -101,6 +101,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
     let mut last: Option<Frame> = None;
     let mut last_calibration: Option<CalibrationLine> = None;
     let mut last_tracks: Option<TracksLine> = None;
+    let mut last_background: Option<BackgroundLine> = None;
     let mut buf = [0u8; 4096];
     let mut last_byte = Instant::now();
     let mut last_draw: Option<Instant> = None;
@@ -138,6 +139,10 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                         Line::Tracks(t) => {
                             last_tracks = Some(*t);
                             (!live).then(|| tracks_plain_line(t))
+                        }
+                        Line::Background(b) => {
+                            last_background = Some(*b);
+                            (!live).then(|| background_plain_line(b))
                         }
                     };
                     if let Some(text) = text {
@@ -200,6 +205,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                 last: last.as_ref(),
                 calibration: last_calibration.as_ref(),
                 tracks: last_tracks.as_ref(),
+                background: last_background.as_ref(),
                 counters: dec.counters(),
                 reopens: link.reopens,
                 fps: meter.per_second(now),

@@ -5,6 +5,7 @@
 use crate::error::{Result, SimError};
 use crate::io::fixed_decimal::write_fixed;
 use crate::io::wav_io::{Recording, RecordingStream};
+use cma_core::background_field::{BackgroundBand, BG_BANDS};
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
 use std::io::Write;
@@ -60,6 +61,9 @@ pub struct Located {
     pub capsules: CapsuleEstimate,
     /// Its confidence in [0, 1] (0 when the stage is off).
     pub capsule_confidence: f32,
+    /// The stationary background per band after the last frame
+    /// ([`Locator::background_field`]; `None` for a band without evidence).
+    pub background: [Option<BackgroundBand>; BG_BANDS],
 }
 
 /// [`locate_stream`] with the self-calibration starting from `start` (ideal when `None`),
@@ -86,6 +90,7 @@ pub fn locate_stream_calibrated(
             return Ok(Located {
                 capsules: *run.loc.capsule_estimate(),
                 capsule_confidence: run.loc.capsule_confidence(),
+                background: run.loc.background_field(),
                 rows: run.rows,
             });
         }
@@ -133,6 +138,56 @@ impl<'t> Run<'t> {
             progress(block.len());
         }
     }
+}
+
+/// Median of the rows' `power_db` (10·log10 of the frame's mean-square omni power, as in the
+/// CSV), `None` without rows.
+#[must_use]
+pub fn median_power_db(rows: &[Row]) -> Option<f64> {
+    let mut db: Vec<f64> = rows
+        .iter()
+        .map(|r| 10.0 * f64::from(r.estimate.power.max(1e-30)).log10())
+        .collect();
+    db.sort_by(f64::total_cmp);
+    db.get(db.len() / 2).copied()
+}
+
+/// The stationary background's summary line of `locate` for the bands of `background` (their
+/// names by [`crate::serial::monitor::background_band_name`]), levels in dB re full-scale mean
+/// square (dBFS) and, with `reference_db`, also relative to it (the median frame `power_db`):
+/// a band whose directivity is above
+/// [`DIRECTIONAL_MIN`](cma_core::background_field::DIRECTIONAL_MIN) as a source, the others as
+/// diffuse. E.g. `stationary background: <1 kHz source at 31° (directivity 0.45), -48.2 dBFS,
+/// -14.1 dB re the median frame power; ≥1 kHz diffuse (directivity 0.12), …`.
+#[must_use]
+pub fn background_summary(
+    background: &[Option<BackgroundBand>; BG_BANDS],
+    reference_db: Option<f64>,
+) -> String {
+    let bands: Vec<String> = background
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            let name = crate::serial::monitor::background_band_name(k);
+            let Some(b) = b else {
+                return format!("{name} no background frame yet");
+            };
+            let what = if b.is_directional() {
+                format!(
+                    "source at {:.0}° (directivity {:.2})",
+                    b.direction_deg, b.directivity
+                )
+            } else {
+                format!("diffuse (directivity {:.2})", b.directivity)
+            };
+            let level = f64::from(b.level_db);
+            let relative = reference_db.map_or_else(String::new, |r| {
+                format!(", {:+.1} dB re the median frame power", level - r)
+            });
+            format!("{name} {what}, {level:.1} dBFS{relative}")
+        })
+        .collect();
+    format!("stationary background: {}", bands.join("; "))
 }
 
 /// CSV header of [`write_csv`].

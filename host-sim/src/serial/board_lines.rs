@@ -4,12 +4,16 @@
 //! the recording); and, like the firmware, a calibration line (the self-calibration's state) before
 //! the first frame line and then every [`CALIBRATION_PERIOD_S`](cma_core::wire::CALIBRATION_PERIOD_S) seconds
 //! of the recording ([`CalibrationSchedule`]), after the frame line that made it due. With the
-//! multi-talker tracks on, a track line follows every frame line.
+//! multi-talker tracks on, a track line follows every frame line. Like the firmware, a background
+//! line (the stationary background per band) follows the frame line (and track line) of the
+//! estimate after each calibration line: one hop later, so that the two never share a hop.
 
 use crate::error::{Result, SimError};
 use crate::io::wav_io::Recording;
 use cma_core::capsule_calibration::CapsuleEstimate;
-use cma_core::wire::{CalibrationLine, CalibrationSchedule, Frame, Line, TracksLine};
+use cma_core::wire::{
+    BackgroundLine, CalibrationLine, CalibrationSchedule, Frame, Line, TracksLine,
+};
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 
 /// Sample frames per block, as on the boards: a block completes at most one analysis hop, so a
@@ -49,8 +53,20 @@ pub fn lines(
         )));
         calibration_seq = calibration_seq.wrapping_add(1);
     };
+    // A background line is due at the next estimate after a calibration line.
+    let mut background_due = false;
+    let mut background_seq = 0u32;
+    let mut background = |loc: &Locator<'_>, t: u64, out: &mut Vec<Line>| {
+        out.push(Line::Background(BackgroundLine::from_summary(
+            &loc.background_field(),
+            background_seq,
+            t,
+        )));
+        background_seq = background_seq.wrapping_add(1);
+    };
     if schedule.due(0) {
         calibration(&loc, 0, &mut out);
+        background_due = true;
     }
     if config.multi_track.enabled {
         // Sample by sample (the same estimates as in blocks), so the tracks can be read after
@@ -68,23 +84,33 @@ pub fn lines(
                 e.centre_sample,
             )));
             tracks_seq = tracks_seq.wrapping_add(1);
+            if std::mem::take(&mut background_due) {
+                background(&loc, e.centre_sample, &mut out);
+            }
             if schedule.due(e.centre_sample) {
                 calibration(&loc, e.centre_sample, &mut out);
+                background_due = true;
             }
         }
         return Ok(out);
     }
     for block in rec.frames.chunks(BOARD_BLOCK) {
-        let mut due = None;
+        let (mut due, mut estimated) = (None, None);
         loc.process_block(block, |e| {
             out.push(Line::Frame(Frame::from_estimate(e, seq, rec.rate, 0, 0)));
             seq = seq.wrapping_add(1);
             if schedule.due(e.centre_sample) {
                 due = Some(e.centre_sample);
             }
+            estimated = Some(e.centre_sample);
         });
+        if let (true, Some(t)) = (background_due, estimated) {
+            background(&loc, t, &mut out);
+            background_due = false;
+        }
         if let Some(t) = due {
             calibration(&loc, t, &mut out);
+            background_due = true;
         }
     }
     Ok(out)
@@ -97,7 +123,7 @@ pub fn frames(lines: Vec<Line>) -> Vec<Frame> {
         .into_iter()
         .filter_map(|l| match l {
             Line::Frame(f) => Some(f),
-            Line::Calibration(_) | Line::Tracks(_) => None,
+            Line::Calibration(_) | Line::Tracks(_) | Line::Background(_) => None,
         })
         .collect()
 }

@@ -10,6 +10,13 @@
 //! recording frames only (its CSV is `locate`'s); a calibration line is not a frame and does not
 //! count in the frame counters.
 //!
+//! The board's background lines (`$BGF`, the stationary background per band, one every 10 s) are
+//! decoded too: the live view marks each band's dominant stationary source on the compass (`L`
+//! below 1 kHz, `H` from 1 kHz, when its directivity is above
+//! [`DIRECTIONAL_MIN`](cma_core::background_field::DIRECTIONAL_MIN), else the band is called
+//! diffuse) and prints the bands in one line ([`background_summary`]); `--plain` prints each as a
+//! `background …` line ([`background_plain_line`]).
+//!
 //! Counter definitions (exact, the serial round-trip test checks them):
 //! - *frames*: frame lines that decoded;
 //! - *calibration lines*: calibration lines that decoded;
@@ -24,10 +31,11 @@ use crate::error::{Result, SimError};
 use crate::io::estimate_output::{flag_names, Format};
 use crate::io::serial_link::DEFAULT_BAUD;
 use crate::localization::frame_estimates::CSV_HEADER;
+use cma_core::background_field::{BG_BANDS, BG_BAND_EDGES_HZ};
 use cma_core::capsule_calibration::CAL_BANDS;
 use cma_core::wire::{
-    self, AssemblerStats, CalibrationLine, DecodeError, Frame, Line, LineAssembler, TracksLine,
-    MAX_ANY_LINE, MAX_LINE, PART_SCALE,
+    self, AssemblerStats, BackgroundLine, CalibrationLine, DecodeError, Frame, Line, LineAssembler,
+    TracksLine, WireBackgroundBand, MAX_ANY_LINE, MAX_LINE, PART_SCALE,
 };
 use cma_core::Flags;
 use cma_core::CARDIOIDS;
@@ -48,6 +56,8 @@ pub struct Counters {
     pub calibration_lines: u64,
     /// Multi-talker track lines decoded.
     pub track_lines: u64,
+    /// Background lines decoded.
+    pub background_lines: u64,
     /// Candidate lines rejected by the decoder, cut short by a `$`, or too long.
     pub corrupt_lines: u64,
     /// Sequence numbers missing between consecutive decoded frames.
@@ -87,6 +97,10 @@ impl Counters {
             self.calibration_lines
         ) + &if self.track_lines > 0 {
             format!(" track_lines={}", self.track_lines)
+        } else {
+            String::new()
+        } + &if self.background_lines > 0 {
+            format!(" background_lines={}", self.background_lines)
         } else {
             String::new()
         }
@@ -159,6 +173,7 @@ impl Decoder {
                         }
                         Line::Calibration(_) => counters.calibration_lines += 1,
                         Line::Tracks(_) => counters.track_lines += 1,
+                        Line::Background(_) => counters.background_lines += 1,
                     }
                     *bytes_since_frame = 0;
                     *text_since_frame = 0;
@@ -379,6 +394,103 @@ pub fn calibration_plain_line(c: &CalibrationLine) -> String {
     s
 }
 
+/// Name of background band `band` from the band edges: `<1 kHz`, `≥1 kHz` (a middle band
+/// `1–2 kHz`).
+#[must_use]
+pub fn background_band_name(band: usize) -> String {
+    let khz = |hz: f32| format!("{}", f64::from(hz) / 1000.0);
+    let lower = band.checked_sub(1).and_then(|b| BG_BAND_EDGES_HZ.get(b));
+    match (lower, BG_BAND_EDGES_HZ.get(band)) {
+        (None, Some(hi)) => format!("<{} kHz", khz(*hi)),
+        (Some(lo), None) => format!("≥{} kHz", khz(*lo)),
+        (Some(lo), Some(hi)) => format!("{}–{} kHz", khz(*lo), khz(*hi)),
+        (None, None) => "all".to_string(),
+    }
+}
+
+/// The mark of background band `band` on the compass: `L` for the lowest band, `H` for the
+/// highest (`M` between).
+#[must_use]
+pub fn background_mark(band: usize) -> char {
+    if band == 0 {
+        'L'
+    } else if band + 1 == BG_BANDS {
+        'H'
+    } else {
+        'M'
+    }
+}
+
+/// One band of [`background_summary`]: `-123° dir 0.45 -52 dBFS` for a dominant source,
+/// `diffuse (0.12) -60 dBFS` at or below the threshold, `--` without evidence.
+fn background_band_text(b: &WireBackgroundBand) -> String {
+    if !b.has_evidence() {
+        return "--".to_string();
+    }
+    let level = f64::from(b.level_db());
+    if b.is_directional() {
+        format!(
+            "{:.0}° dir {:.2} {level:.0} dBFS",
+            b.direction_deg(),
+            b.directivity()
+        )
+    } else {
+        format!("diffuse ({:.2}) {level:.0} dBFS", b.directivity())
+    }
+}
+
+/// The live view's line for a background line (at most 80 characters for levels above −200
+/// dBFS): per band its compass mark, its name, and its dominant stationary source's direction,
+/// directivity and level (dB re full-scale mean square), or `diffuse` when the directivity is
+/// at most [`DIRECTIONAL_MIN`](cma_core::background_field::DIRECTIONAL_MIN). E.g.
+/// `background: L <1 kHz 31° dir 0.45 -52 dBFS; H ≥1 kHz diffuse (0.12) -60 dBFS`.
+#[must_use]
+pub fn background_summary(l: &BackgroundLine) -> String {
+    let bands: Vec<String> = l
+        .bands
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            format!(
+                "{} {} {}",
+                background_mark(k),
+                background_band_name(k),
+                background_band_text(b)
+            )
+        })
+        .collect();
+    format!("background: {}", bands.join("; "))
+}
+
+/// The plain text of a background line: `background seq=… t=…` and per band
+/// `band<k>=n:<frames>,az:<deg>,dir:<directivity>,db:<level>` exactly as sent.
+#[must_use]
+pub fn background_plain_line(l: &BackgroundLine) -> String {
+    let mut s = format!("background seq={} t={}", l.seq, l.centre_sample);
+    for (k, b) in l.bands.iter().enumerate() {
+        let _ = write!(
+            s,
+            " band{k}=n:{},az:{:.1},dir:{:.3},db:{:.1}",
+            b.frames,
+            b.direction_deg(),
+            b.directivity(),
+            b.level_db()
+        );
+    }
+    s
+}
+
+/// The compass marks of a background line's directional bands: ([`background_mark`], direction).
+#[must_use]
+pub fn background_marks(l: &BackgroundLine) -> Vec<(char, f64)> {
+    l.bands
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.is_directional())
+        .map(|(k, b)| (background_mark(k), f64::from(b.direction_tenths) / 10.0))
+        .collect()
+}
+
 /// `(NAME|NAME)` of the set flags, or nothing.
 fn bracketed_names(flags: Flags) -> String {
     let names = flag_names(flags);
@@ -533,6 +645,13 @@ pub fn draw_rose(azimuth_deg: Option<f64>, raw_deg: Option<f64>, confidence: f64
     draw_rose_with_talkers(azimuth_deg, raw_deg, confidence, &[])
 }
 
+/// Radius (share of the ring's) of the lowest band's background mark; each higher band's is
+/// [`BACKGROUND_RADIUS_STEP`] further out, so that the bands' marks of one source do not cover each
+/// other. Inside the talkers' (0.7), under the needle, which is drawn over them.
+const BACKGROUND_RADIUS: f64 = 0.4;
+/// Radius step between the bands' background marks.
+const BACKGROUND_RADIUS_STEP: f64 = 0.15;
+
 /// [`draw_rose`] with one mark per active talker of a track line: the last digit of its ID at
 /// 0.7 of the radius in its direction.
 #[must_use]
@@ -541,6 +660,20 @@ pub fn draw_rose_with_talkers(
     raw_deg: Option<f64>,
     confidence: f64,
     talkers: &[(u16, f64)],
+) -> Vec<String> {
+    draw_rose_with_marks(azimuth_deg, raw_deg, confidence, talkers, &[])
+}
+
+/// [`draw_rose_with_talkers`] with the background sources' marks ([`background_marks`]) in their
+/// directions, `L` at 0.4 of the radius and `H` at 0.55, drawn first (the needle and the talkers
+/// cover them).
+#[must_use]
+pub fn draw_rose_with_marks(
+    azimuth_deg: Option<f64>,
+    raw_deg: Option<f64>,
+    confidence: f64,
+    talkers: &[(u16, f64)],
+    background: &[(char, f64)],
 ) -> Vec<String> {
     let r = ROSE_R;
     let (w, h) = ((4 * r + 1 + 8) as usize, (2 * r + 1) as usize);
@@ -576,6 +709,19 @@ pub fn draw_rose_with_talkers(
     label(&mut grid, cy, cx + 2 * r + 2, "-90");
     label(&mut grid, 2 * r, cx - 1, "180");
     grid[cy as usize][cx as usize] = 'o';
+    for &(mark, az) in background {
+        let step = match mark {
+            'L' => 0.0,
+            'M' => 0.5,
+            _ => 1.0,
+        };
+        put(
+            &mut grid,
+            az,
+            BACKGROUND_RADIUS + step * BACKGROUND_RADIUS_STEP,
+            mark,
+        );
+    }
     if let Some(az) = azimuth_deg {
         // A confident needle is drawn solid, a doubtful one dotted.
         let ch = if confidence >= 0.5 { '*' } else { ':' };
@@ -609,6 +755,8 @@ pub struct View<'a> {
     pub calibration: Option<&'a CalibrationLine>,
     /// The last track line decoded.
     pub tracks: Option<&'a TracksLine>,
+    /// The last background line decoded.
+    pub background: Option<&'a BackgroundLine>,
     /// The decoder's counters.
     pub counters: Counters,
     /// Times the port was reopened.
@@ -714,6 +862,10 @@ pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
         || "selfcal --  (no calibration line yet)".to_string(),
         calibration_summary,
     );
+    let background = v.background.map_or_else(
+        || "background --  (no background line yet)".to_string(),
+        background_summary,
+    );
     let mut lines =
         vec!["host-sim monitor — talker azimuth (0° = cardioid 1, counter-clockwise)".to_string()];
     if cols >= FULL_VIEW.0 && rows >= FULL_VIEW.1 {
@@ -726,7 +878,8 @@ pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
                     .collect()
             })
             .unwrap_or_default();
-        let rose = draw_rose_with_talkers(az, raw, conf, &talkers);
+        let marks = v.background.map(background_marks).unwrap_or_default();
+        let rose = draw_rose_with_marks(az, raw, conf, &talkers, &marks);
         lines.push(String::new());
         for i in 0..rose.len().max(info.len()) {
             let left = rose.get(i).map_or("", String::as_str);
@@ -734,10 +887,12 @@ pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
             lines.push(format!("{left:<w$}{right}", w = ROSE_COLUMN));
         }
         lines.push(selfcal);
+        lines.push(background);
         lines.push(LEGEND.to_string());
     } else {
         lines.extend(info);
         lines.push(selfcal);
+        lines.push(background);
     }
     lines.push(v.status.clone().unwrap_or_default());
     // Never wrap (a wrapped line scrolls the view), never scroll: cut to the terminal.
@@ -938,6 +1093,7 @@ mod tests {
             last: None,
             calibration: None,
             tracks: None,
+            background: None,
             counters: Counters::default(),
             reopens: 0,
             fps: 0.0,
@@ -1002,6 +1158,7 @@ mod tests {
             b.omni_part = [wire::PART_MAX, 1, 3000];
             b.dipole_part = [wire::PART_MAX, 1, 7000];
         }
+        let bg = widest_background();
         let v = View {
             port: Path::new("/dev/serial/by-id/usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0"),
             baud: 921_600,
@@ -1009,6 +1166,7 @@ mod tests {
             last: Some(&f),
             calibration: Some(&cal),
             tracks: None,
+            background: Some(&bg),
             counters,
             reopens: 17,
             fps: 62.5,
@@ -1036,8 +1194,13 @@ mod tests {
             assert_eq!(lines.contains(&LEGEND), has_rose);
             assert!(lines.last().unwrap().starts_with("no valid frames"));
             if has_rose {
-                // Title, blank, 17 rows of rose, self-calibration, legend, status.
-                assert_eq!(lines.len(), 22);
+                // Title, blank, 17 rows of rose, self-calibration, background, legend, status.
+                assert_eq!(lines.len(), 23);
+                assert!(
+                    lines[20].starts_with("background: L <1 kHz "),
+                    "{}",
+                    lines[20]
+                );
                 assert!(
                     lines[19].starts_with("selfcal 0.83  gain "),
                     "{}",
@@ -1046,6 +1209,72 @@ mod tests {
                 assert!(lines[19].ends_with("held"), "{}", lines[19]);
             }
         }
+    }
+
+    /// A background line with both bands at their widest text.
+    fn widest_background() -> BackgroundLine {
+        BackgroundLine {
+            seq: 0,
+            centre_sample: 0,
+            bands: [WireBackgroundBand {
+                frames: 100,
+                direction_tenths: -1234,
+                directivity_permille: 450,
+                level_tenths_db: -1519,
+            }; BG_BANDS],
+        }
+    }
+
+    #[test]
+    fn background_lines_are_decoded_shown_and_marked_on_the_rose() {
+        let mut l = widest_background();
+        l.bands[0] = WireBackgroundBand {
+            frames: 100,
+            direction_tenths: 312,
+            directivity_permille: 450,
+            level_tenths_db: -523,
+        };
+        l.bands[1].directivity_permille = 120;
+        l.bands[1].level_tenths_db = -601;
+        assert_eq!(
+            background_summary(&l),
+            "background: L <1 kHz 31° dir 0.45 -52 dBFS; H ≥1 kHz diffuse (0.12) -60 dBFS"
+        );
+        assert_eq!(
+            background_plain_line(&l),
+            "background seq=0 t=0 band0=n:100,az:31.2,dir:0.450,db:-52.3 \
+             band1=n:100,az:-123.4,dir:0.120,db:-60.1"
+        );
+        assert_eq!(
+            background_summary(&BackgroundLine::default()),
+            "background: L <1 kHz --; H ≥1 kHz --"
+        );
+        assert!(background_summary(&widest_background()).chars().count() <= 80);
+        // Only the directional band is marked: `L` at half the radius toward 31°.
+        assert_eq!(background_marks(&l), [('L', 31.2)]);
+        let rose = draw_rose_with_marks(None, None, 0.0, &[], &background_marks(&l));
+        let plain = draw_rose(None, None, 0.0);
+        let changed: Vec<usize> = (0..rose.len()).filter(|&i| rose[i] != plain[i]).collect();
+        assert_eq!(changed.len(), 1);
+        let row = &rose[changed[0]];
+        assert!(changed[0] < ROSE_R as usize && row.contains('L'), "{row}");
+        assert!(row.find('L').unwrap() < (2 * ROSE_R + 4) as usize, "{row}");
+        // Both bands' marks of one source stay visible.
+        let both = draw_rose_with_marks(None, None, 0.0, &[], &[('L', 90.0), ('H', 90.0)]);
+        let middle = &both[ROSE_R as usize];
+        assert!(middle.contains('L') && middle.contains('H'), "{middle}");
+        // Decoded and counted, not as frames.
+        let mut buf = [0u8; wire::MAX_BGF_LINE];
+        let n = wire::encode_background(&l, &mut buf);
+        let mut stream = buf[..n].to_vec();
+        stream.extend_from_slice(&line(1));
+        let mut d = Decoder::new();
+        let mut got = Vec::new();
+        d.feed_lines(&stream, |x| got.push(*x));
+        assert_eq!(got[0], Line::Background(l));
+        let c = d.counters();
+        assert_eq!((c.frames, c.background_lines, c.corrupt_lines), (1, 1, 0));
+        assert!(c.summary(0).ends_with(" background_lines=1"));
     }
 
     #[test]

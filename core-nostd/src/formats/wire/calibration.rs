@@ -325,17 +325,22 @@ pub enum Line {
     Calibration(CalibrationLine),
     /// A `$TRK` track line.
     Tracks(super::TracksLine),
+    /// A `$BGF` background line.
+    Background(super::BackgroundLine),
 }
 
 /// Checks and parses a line of any kind, chosen by its tag: [`decode_calibration`] for `$CAL,`,
-/// [`decode_tracks`](super::decode_tracks) for `$TRK,`, [`decode`](super::decode) for everything
-/// else (so its errors are the frame decoder's).
+/// [`decode_tracks`](super::decode_tracks) for `$TRK,`,
+/// [`decode_background`](super::decode_background) for `$BGF,`, [`decode`](super::decode) for
+/// everything else (so its errors are the frame decoder's).
 pub fn decode_line(line: &[u8]) -> Result<Line, DecodeError> {
     let body = line.strip_prefix(b"$");
     if body.is_some_and(|b| b.starts_with(CALIBRATION_TAG)) {
         decode_calibration(line).map(Line::Calibration)
     } else if body.is_some_and(|b| b.starts_with(super::TRACKS_TAG)) {
         super::decode_tracks(line).map(Line::Tracks)
+    } else if body.is_some_and(|b| b.starts_with(super::BACKGROUND_TAG)) {
+        super::decode_background(line).map(Line::Background)
     } else {
         super::decode(line).map(Line::Frame)
     }
