@@ -185,7 +185,11 @@ impl Bench {
         let q = self.table.num_azimuths();
         let curve = &mut self.curve[..q];
         let mut weight_sum = 0.0f32;
-        let mut used = [PeakFeature::NONE; MAX_PEAKS];
+        let mut used = [PeakFeature {
+            fi: 0,
+            y: [0.0; 3],
+            weight: 0.0,
+        }; MAX_PEAKS];
         let mut n_used = 0;
         for i in 0..self.peaks.len {
             let k = self.peaks.bins[i] as usize;
@@ -202,7 +206,6 @@ impl Bench {
                 fi: 0,
                 y,
                 weight: 1.0,
-                noise: self.table.rows(self.curves.features).noise(0),
             };
             n_used += 1;
             weight_sum += 1.0;

@@ -1,54 +1,33 @@
 //! The stationary background field: what the room's steady sound — diffuse noise, a fan, a
-//! projector, an air vent, mains hum — adds to each peak's features, measured per frequency band.
-//!
-//! # Why
-//! The noisy references (thesis §5.1.5, [`crate::noisy_reference`]) compare a peak's features with
-//! each reference mixed toward the feature Y_η of the noise: a peak that holds the talker and some
-//! noise lies between the two. The thesis takes Y_η from diffuse noise (the active ratio ½ of an
-//! ideal array). A directional source does not pull a peak toward ½ but toward its *own* direction's
-//! feature, and a peak that holds only the source then matches the source's azimuth as well as any
-//! talker: the estimate is pulled toward the fan, and in pauses the fan is all there is.
-//!
-//! With the active ratios Y_c = Re(X_c·X_0*)/|X_0|² the mix is exact in expectation: a talker of power
-//! S and an uncorrelated background of power N with feature Y_b give
-//! E[Re(X_c·X_0*)]/E|X_0|² = α·Y(θ) + (1 − α)·Y_b, α = S/(S + N), whatever the background's
-//! directions. So this stage measures Y_b per band from the background alone and, with
-//! [`BackgroundField::references`], the similarity mixes the references toward it instead of ½. A peak of the source alone then lies at the common
-//! end of every azimuth's mixing segment and adds the same to every azimuth: no vote for the
-//! source, no estimate in pauses; a peak of talker and source matches the talker's azimuth at the
-//! right α. A diffuse background measures Y_b ≈ ½, which is the thesis's noisy reference again;
-//! an imperfect array's diffuse background measures where *its* noise lies.
-//!
-//! # What it pays, and why it is not the default's reference
-//! Measured with `scripts/validate` and `host-sim eval` (the noise kinds: a fan, projector, vent or
-//! hum 16–22 or 6–12 dB below the talker; even seeds ideal arrays, odd seeds imperfect ones):
-//! * on **ideal arrays** mixing toward the measured background changes little (within about a
-//!   point of ACC10, self-calibration on or off): what these scenes lose is mostly the settling after
-//!   each change of the talker's place and the room's reflections, not votes for the source;
-//! * on **imperfect arrays with the self-calibration off** it pays (full suite, all noise seeds:
-//!   16–22 dB below 64.4 → 78.2 % ACC10, 6–12 dB below 65.6 → 73.2 %): the measured point is where
-//!   *these* capsules put the noise, which the ideal ½ is not;
-//! * with the self-calibration on (the default) it does not pay on the full suite (noise kinds −0.6
-//!   to −1.5 points), though the quick suite's short scenes gained before the calibration converged.
-//!
-//! The default therefore measures (for the noise-field report) and mixes toward the table's row.
+//! projector, an air vent, mains hum — is, measured per frequency band, for the installer's
+//! noise-field report ([`BackgroundFieldState::band_summary`]: the wire's background line, `host-sim
+//! monitor` and `locate`).
 //!
 //! # Estimate
 //! Per band ([`BG_BANDS`]: below and above [`BG_BAND_EDGES_HZ`]): the band's omni power, its floor
 //! (the minimum, rising at most [`BackgroundField::rise_db_per_s`]), and in frames where the band is
 //! within [`BackgroundField::background_db`] of its floor ("background") the sums of Re(X_c·X_0*)
-//! and |X_c|² over its peaks with the cardioids as the similarity sees them (after the
-//! self-calibration's correction), relative to Σ|X_0|². Each such frame's ratios join a running
-//! mean over about [`BackgroundField::memory_frames`] background frames, and the band's feature is
-//! shrunk toward the table's noise row while its evidence is small (weight n/(`memory_frames`/2),
-//! at most 1). The similarity gets the means every [`PUBLISH_FRAMES`] frames.
+//! over its peaks with the cardioids as the similarity sees them (after the self-calibration's
+//! correction), relative to Σ|X_0|²: the active ratios. Each such frame's ratios join a running
+//! mean over about [`BackgroundField::memory_frames`] background frames. A diffuse background gives
+//! ½ for every cardioid; a source from θ alone 0.5 + 0.5·cos(θ − φ_c); a source in diffuse noise lies
+//! between, and the zero-mean part of the three ratios points at the source.
 //!
-//! State: per band a floor, 7 running values, a count and the published point (≈ 0.2 KB in
-//! all). Work per hop: a sum over the analysis band's omni powers, and on background bands six
-//! multiply–adds per peak; with the references, each publication makes the similarity recompute
-//! one band's per-azimuth constants (its row cache holds one row per band).
+//! # Not a front end of the similarity (measured)
+//! With the active ratios a talker of power S and an uncorrelated background of power N with
+//! ratios Y_b give, in expectation, α·Y(θ) + (1 − α)·Y_b (α = S/(S + N)), so the noisy references
+//! (thesis §5.1.5) could mix toward the measured Y_b instead of the diffuse ½, and a peak of the
+//! source alone would vote for no azimuth. Built and measured on `scripts/validate`'s noise kinds
+//! (a fan, projector, vent or hum 16–22 or 6–12 dB below the talker; ideal and imperfect arrays):
+//! on ideal arrays it changed little (within about a point of ACC10, self-calibration on or off:
+//! these scenes lose mostly to the settling after each change of the talker's place); it paid on
+//! imperfect arrays with the self-calibration off (full suite 64.4 → 78.2 % and 65.6 → 73.2 %), and
+//! not with it on (−0.6 to −1.5 points), the default. It cost a second row cache (RAM) and flash the
+//! F411 image does not have, so it is not part of the product (CHANGELOG).
+//!
+//! State: per band a floor, 4 running values and a count (≈ 0.1 KB in all). Work per hop: a sum
+//! over the analysis band's omni powers, and on background bands four multiply–adds per peak.
 
-use crate::features::FeatureKind;
 use crate::noise_floor::{NoiseFloor, NoiseGate};
 use crate::power_ramp::power_ratio_from_db;
 use crate::reference_table::Feature;
@@ -71,13 +50,8 @@ fn band_of_frequency(f_hz: f32) -> usize {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct BackgroundField {
-    /// Whether the stage measures the background (for the noise-field report, and for `references`).
+    /// Whether the stage measures the background.
     pub enabled: bool,
-    /// Whether the noisy references mix toward the measured background (off: toward the table's
-    /// noise row, as in the thesis). Measured: it pays while the self-calibration is off (a measured
-    /// table); with the self-calibration on, whose correction makes the background look diffuse, it
-    /// does not (CHANGELOG, docs/validation.md).
-    pub references: bool,
     /// A band of a frame is background when its omni power is at most this many dB above the
     /// band's floor.
     pub background_db: f32,
@@ -89,25 +63,17 @@ pub struct BackgroundField {
 }
 
 impl BackgroundField {
-    /// The stage off: nothing measured, references mix toward the table's noise row.
+    /// The stage off: nothing measured.
     pub const OFF: Self = Self {
         enabled: false,
-        references: false,
         background_db: 3.0,
         rise_db_per_s: 2.0,
         memory_frames: 100.0,
     };
 
-    /// The product's setting: measured (for the report), the references as in the thesis.
+    /// The product's setting: measured.
     pub const DEFAULT: Self = Self {
         enabled: true,
-        ..Self::OFF
-    };
-
-    /// Measured, and the noisy references mix toward it.
-    pub const MIXED: Self = Self {
-        enabled: true,
-        references: true,
         ..Self::OFF
     };
 
@@ -123,11 +89,10 @@ impl BackgroundField {
     }
 }
 
-/// One band's running means: Re(X_c·X_0*)/|X_0|² and |X_c|²/|X_0|², and their evidence.
+/// One band's running means of Re(X_c·X_0*)/|X_0|², and their evidence.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct BandMeans {
     active: Feature,
-    power: Feature,
     /// Background frames seen (saturating at the memory).
     n: f32,
 }
@@ -136,14 +101,12 @@ struct BandMeans {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct FrameSums {
     xw: Feature,
-    xx: Feature,
     ww: f32,
 }
 
 impl FrameSums {
     const ZERO: Self = Self {
         xw: [0.0; CARDIOIDS],
-        xx: [0.0; CARDIOIDS],
         ww: 0.0,
     };
 }
@@ -160,22 +123,7 @@ pub struct BackgroundFieldState {
     means: [BandMeans; BG_BANDS],
     background_ratio: f32,
     pole: f32,
-    /// Feature kind of the published points.
-    kind: FeatureKind,
-    /// Per band: the measured feature the similarity uses and its weight against the table's row.
-    published: [(Feature, f32); BG_BANDS],
-    /// Frames since the reset (the publication schedule).
-    frames: u32,
 }
-
-/// Each band's measured feature is handed to the similarity every this many frames, the bands in
-/// turn (each publication makes the similarity recompute that band's per-azimuth constants once, so
-/// one hop does it for one band at most).
-pub const PUBLISH_FRAMES: u32 = 16;
-const _: () = assert!(
-    (PUBLISH_FRAMES as usize).is_multiple_of(BG_BANDS),
-    "bands publish in turn"
-);
 
 impl BackgroundFieldState {
     /// An idle state (the stage off).
@@ -189,29 +137,18 @@ impl BackgroundFieldState {
             frame: [FrameSums::ZERO; BG_BANDS],
             means: [BandMeans {
                 active: [0.5; CARDIOIDS],
-                power: [0.5; CARDIOIDS],
                 n: 0.0,
             }; BG_BANDS],
             background_ratio: 1.0,
             pole: 1.0,
-            kind: FeatureKind::Active,
-            published: [([0.5; CARDIOIDS], 0.0); BG_BANDS],
-            frames: 0,
         }
     }
 
     /// Makes this state a fresh one for `settings` at analysis rate `fs` Hz (`frames_per_s`
     /// analysis frames per second), in place.
-    pub fn reset(
-        &mut self,
-        settings: BackgroundField,
-        kind: FeatureKind,
-        fs: f32,
-        frames_per_s: f32,
-    ) {
+    pub fn reset(&mut self, settings: BackgroundField, fs: f32, frames_per_s: f32) {
         *self = Self::idle();
         self.settings = settings;
-        self.kind = kind;
         let band_of = |k: usize| band_of_frequency(crate::spectrum::bin_frequency(k, fs));
         for (b, range) in self.band_bins.iter_mut().enumerate() {
             let start = (0..NUM_BINS)
@@ -279,18 +216,11 @@ impl BackgroundFieldState {
         s.ww += w.re * w.re + w.im * w.im;
         for m in 0..CARDIOIDS {
             s.xw[m] += x[m].re * w.re + x[m].im * w.im;
-            s.xx[m] += x[m].re * x[m].re + x[m].im * x[m].im;
         }
     }
 
-    /// Ends a frame: each background band's ratios join its running means; every
-    /// [`PUBLISH_FRAMES`] frames each band's mean is published, the bands in turn.
+    /// Ends a frame: each background band's ratios join its running means.
     pub fn end_frame(&mut self) {
-        self.frames = self.frames.wrapping_add(1);
-        let phase = self.frames % PUBLISH_FRAMES;
-        if phase.is_multiple_of(PUBLISH_FRAMES / BG_BANDS as u32) {
-            self.publish((phase / (PUBLISH_FRAMES / BG_BANDS as u32)) as usize);
-        }
         let cap = self.settings.memory_frames;
         for (m, s) in self.means.iter_mut().zip(&self.frame) {
             if !(s.ww > 0.0) || !s.ww.is_finite() {
@@ -298,8 +228,7 @@ impl BackgroundFieldState {
             }
             let inv = 1.0 / s.ww;
             let active = s.xw.map(|v| v * inv);
-            let power = s.xx.map(|v| v * inv);
-            if !active.iter().chain(&power).all(|v| v.is_finite()) {
+            if !active.iter().all(|v| v.is_finite()) {
                 continue;
             }
             // The first frames average equally (1/n), then the memory takes over.
@@ -311,40 +240,7 @@ impl BackgroundFieldState {
             };
             for c in 0..CARDIOIDS {
                 m.active[c] += g * (active[c] - m.active[c]);
-                m.power[c] += g * (power[c] - m.power[c]);
             }
-        }
-    }
-
-    /// The noise point of band `band` relative to `table_noise` (the reference table's noise row
-    /// of the peak's row): the published measured feature, shrunk toward `table_noise` while its
-    /// evidence is small. Constant between two publications ([`PUBLISH_FRAMES`]), so that the
-    /// similarity's per-azimuth constants stay valid.
-    #[inline]
-    #[must_use]
-    pub fn noise_point(&self, band: usize, table_noise: Feature) -> Feature {
-        let (measured, w) = self.published[band.min(BG_BANDS - 1)];
-        if !(w > 0.0) {
-            return table_noise;
-        }
-        [0, 1, 2].map(|c| table_noise[c] + w * (measured[c] - table_noise[c]))
-    }
-
-    /// Publishes band `band`'s running mean for features of the configured kind with its weight
-    /// against the table's row: n/(`memory_frames`/2), at most 1.
-    fn publish(&mut self, band: usize) {
-        let kind = self.kind;
-        let inv_half = 2.0 / self.settings.memory_frames;
-        if let (Some(out), Some(m)) = (self.published.get_mut(band), self.means.get(band)) {
-            if !(m.n > 0.0) {
-                return;
-            }
-            let measured = match kind {
-                FeatureKind::Active => m.active,
-                FeatureKind::Magnitude => m.power.map(|p| crate::fast_math::sqrtf(clamp0(p))),
-            };
-            let w = m.n * inv_half;
-            *out = (measured, if w < 1.0 { w } else { 1.0 });
         }
     }
 }
@@ -474,14 +370,6 @@ impl BackgroundFieldState {
     }
 }
 
-fn clamp0(v: f32) -> f32 {
-    if v > 0.0 {
-        v
-    } else {
-        0.0
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -497,17 +385,12 @@ mod tests {
 
     fn state() -> BackgroundFieldState {
         let mut s = BackgroundFieldState::idle();
-        s.reset(
-            BackgroundField::MIXED,
-            FeatureKind::Active,
-            FS,
-            FS / crate::HOP as f32,
-        );
+        s.reset(BackgroundField::DEFAULT, FS, FS / crate::HOP as f32);
         s
     }
 
-    /// A directional source alone: every band learns its feature, the ideal cardioid's value at
-    /// its azimuth; louder frames (a talker) are not learned from.
+    /// A directional source alone: every band learns its active ratios, the ideal cardioid's value
+    /// at its azimuth, and points at it; louder frames (a talker) are not learned from.
     #[test]
     fn a_directional_background_measures_its_own_feature() {
         let mut s = state();
@@ -545,29 +428,29 @@ mod tests {
         }
         let (_, want) = wave(40.0, Complex32::new(1.0, 0.0));
         for band in 0..BG_BANDS {
-            let y = s.noise_point(band, [0.5; 3]);
+            let y = s.means[band].active;
             for c in 0..3 {
                 assert!(
                     (y[c] - want[c].re).abs() < 0.03,
                     "band {band} c {c}: {y:?} vs {want:?}"
                 );
             }
+            let b = s.band_summary(band).unwrap();
+            assert!((b.direction_deg - 40.0).abs() < 3.0, "{b:?}");
         }
     }
 
-    /// Before any background frame the table's noise row is the noise point; NaN input is
-    /// never learned.
+    /// Before any background frame there is no summary; NaN input is never learned.
     #[test]
-    fn without_evidence_the_table_row_stands() {
+    fn without_evidence_there_is_no_summary() {
         let mut s = state();
-        let row = [0.5, 0.4, 0.6];
-        assert_eq!(s.noise_point(0, row), row);
+        assert_eq!(s.band_summary(0), None);
         let power = [f32::NAN; NUM_BINS];
         s.begin_frame(&power, 10, 300, true);
         let nan = Complex32::new(f32::NAN, 0.0);
         s.add_peak(20, nan, &[nan; 3]);
         s.end_frame();
-        assert_eq!(s.noise_point(0, row), row);
+        assert_eq!(s.summary(), [None; BG_BANDS]);
         assert!(BackgroundField::DEFAULT.is_valid());
         assert!(!BackgroundField {
             memory_frames: 0.5,

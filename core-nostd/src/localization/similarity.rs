@@ -71,13 +71,8 @@ pub fn mean_free(y: Feature) -> Feature {
 /// Most peaks of one row that [`CurveBuilder::accumulate_peaks`] takes in one pass.
 const GROUP: usize = 2;
 
-/// Azimuths a [`RowCache`] holds: the 5° grid (tables with more azimuths take the uncached path).
-pub const ROW_CACHE_LEN: usize = 72;
-
-/// Rows a [`RowCache`] holds at once: one per band of the background field
-/// ([`crate::background_field::BG_BANDS`]), so that peaks of every band keep their constants from
-/// frame to frame.
-pub const ROW_CACHE_SLOTS: usize = crate::background_field::BG_BANDS;
+/// Azimuths a [`RowCache`] holds (tables with more azimuths take the uncached path).
+pub const ROW_CACHE_LEN: usize = 128;
 
 /// The per-azimuth constants of one frequency row of the fast Euclidean path of
 /// [`CurveBuilder::accumulate_cached`]: with r = Y_ref(q) − Y_η, the vector −2r, ‖r‖² and
@@ -88,7 +83,7 @@ pub const ROW_CACHE_SLOTS: usize = crate::background_field::BG_BANDS;
 /// SSE2 kernel that takes four azimuths at a time; elsewhere (the Cortex-M4F) as one array of
 /// five-element entries.
 #[derive(Debug, Clone, Copy)]
-pub struct CachedRow {
+pub struct RowCache {
     /// Row the entries belong to (`usize::MAX`: none).
     fi: usize,
     /// The row's omni-noise feature Y_η, which the entries are relative to.
@@ -101,8 +96,8 @@ pub struct CachedRow {
     soa: [[f32; ROW_CACHE_LEN]; 5],
 }
 
-impl CachedRow {
-    /// An empty slot.
+impl RowCache {
+    /// An empty cache.
     #[must_use]
     pub const fn new() -> Self {
         Self {
@@ -114,38 +109,10 @@ impl CachedRow {
             soa: [[0.0; ROW_CACHE_LEN]; 5],
         }
     }
-}
 
-impl Default for CachedRow {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-/// The last rows the cached path used, each relative to its noise point: [`ROW_CACHE_SLOTS`]
-/// [`CachedRow`]s, the least recently used one refilled on a miss.
-#[derive(Debug, Clone, Copy)]
-pub struct RowCache {
-    slots: [CachedRow; ROW_CACHE_SLOTS],
-    /// Look-ups since each slot was last used.
-    age: [u32; ROW_CACHE_SLOTS],
-}
-
-impl RowCache {
-    /// An empty cache.
-    #[must_use]
-    pub const fn new() -> Self {
-        Self {
-            slots: [CachedRow::new(); ROW_CACHE_SLOTS],
-            age: [0; ROW_CACHE_SLOTS],
-        }
-    }
-
-    /// Forgets the cached rows (call when the table or the feature kind changes).
+    /// Forgets the cached row (call when the table or the feature kind changes).
     pub fn clear(&mut self) {
-        for s in &mut self.slots {
-            s.fi = usize::MAX;
-        }
+        self.fi = usize::MAX;
     }
 }
 
@@ -164,18 +131,14 @@ pub struct PeakFeature {
     pub y: Feature,
     /// Weight of the peak in the mean curve.
     pub weight: f32,
-    /// The noise point Y_η its noisy references mix toward: the table's noise row of `fi`, or the
-    /// measured background's feature ([`crate::background_field`]).
-    pub noise: Feature,
 }
 
 impl PeakFeature {
-    /// An unused slot: row 0, zero features and weight, the ideal model's noise point.
+    /// An unused slot: row 0, zero features and weight.
     pub const NONE: PeakFeature = PeakFeature {
         fi: 0,
         y: [0.0; 3],
         weight: 0.0,
-        noise: [0.5; 3],
     };
 }
 
@@ -274,27 +237,11 @@ impl CurveBuilder {
         y: Feature,
         weight: f32,
         curve: &mut [f32],
-        distance: Option<DistanceSum<'_>>,
-    ) {
-        let noise = table.rows(self.features).noise(fi);
-        self.accumulate_with_noise(table, fi, noise, y, weight, curve, distance);
-    }
-
-    /// [`CurveBuilder::accumulate_into`] with the noisy references of the magnitude mixing mixed
-    /// toward `noise_mag` instead of the row's noise row (power mixing keeps the table's).
-    #[allow(clippy::too_many_arguments)]
-    pub fn accumulate_with_noise(
-        &self,
-        table: &ReferenceTable<'_>,
-        fi: usize,
-        noise_mag: Feature,
-        y: Feature,
-        weight: f32,
-        curve: &mut [f32],
         mut distance: Option<DistanceSum<'_>>,
     ) {
         let rows = table.rows(self.features);
         let row = rows.row(fi);
+        let noise_mag = rows.noise(fi);
         let noise_pow = table.noise_power(fi);
         let fast = self.measure == SimilarityMeasure::Euclidean
             && !self.mean_free
@@ -378,10 +325,8 @@ impl CurveBuilder {
             self.accumulate(table, fi, y, weight, curve);
             return;
         };
-        let noise = table.rows(self.features).noise(fi);
-        let slot = self.fill_cache(cache, table, fi, noise);
-        let cache = &cache.slots[slot];
-        self.accumulate_group(cache, noise, [y], [weight], &mut curve[..q], None);
+        let noise_mag = self.fill_cache(cache, table, fi);
+        self.accumulate_group(cache, noise_mag, [y], [weight], &mut curve[..q], None);
     }
 
     /// [`CurveBuilder::accumulate_cached`] for each peak in order, with two consecutive peaks of the
@@ -416,17 +361,15 @@ impl CurveBuilder {
             }
             for p in peaks {
                 let ds = distance.as_mut().map(DistanceSum::reborrow);
-                self.accumulate_with_noise(table, p.fi, p.noise, p.y, p.weight, curve, ds);
+                self.accumulate_into(table, p.fi, p.y, p.weight, curve, ds);
             }
             return;
         };
         let curve = &mut curve[..q];
         let mut rest = peaks;
         while let Some(p) = rest.first() {
-            let slot = self.fill_cache(cache, table, p.fi, p.noise);
-            let (cache, noise_mag) = (&cache.slots[slot], p.noise);
-            let same = |x: &&PeakFeature| x.fi == p.fi && x.noise == p.noise;
-            let run = rest.iter().take(GROUP).take_while(same).count();
+            let noise_mag = self.fill_cache(cache, table, p.fi);
+            let run = rest.iter().take(GROUP).take_while(|x| x.fi == p.fi).count();
             let ds = distance.as_mut().map(DistanceSum::reborrow);
             if run == 2 {
                 let (p2, ws) = (rest[1], [p.weight, rest[1].weight]);
@@ -488,55 +431,22 @@ impl CurveBuilder {
         ok.then_some(q)
     }
 
-    /// Makes a slot of `cache` hold row `fi` of the table's rows for this builder's feature kind
-    /// relative to the noise point `noise` (refilling the least recently used one on a miss);
-    /// returns its index.
+    /// Makes `cache` hold row `fi` of the table's rows for this builder's feature kind; returns the
+    /// row's omni-noise feature Y_η.
     #[inline(always)]
-    fn fill_cache(
-        &self,
-        cache: &mut RowCache,
-        table: &ReferenceTable<'_>,
-        fi: usize,
-        noise: Feature,
-    ) -> usize {
-        for a in &mut cache.age {
-            *a = a.saturating_add(1);
+    fn fill_cache(&self, cache: &mut RowCache, table: &ReferenceTable<'_>, fi: usize) -> Feature {
+        if cache.fi == fi {
+            return cache.noise;
         }
-        let hit = (0..ROW_CACHE_SLOTS)
-            .find(|&i| cache.slots[i].fi == fi && cache.slots[i].noise == noise);
-        let i = match hit {
-            Some(i) => i,
-            None => {
-                let mut oldest = 0;
-                for i in 1..ROW_CACHE_SLOTS {
-                    if cache.age[i] > cache.age[oldest] {
-                        oldest = i;
-                    }
-                }
-                self.refill_cache(
-                    &mut cache.slots[oldest],
-                    &table.rows(self.features),
-                    fi,
-                    noise,
-                );
-                oldest
-            }
-        };
-        cache.age[i] = 0;
-        i
+        self.refill_cache(cache, &table.rows(self.features), fi)
     }
 
     /// [`CurveBuilder::fill_cache`] when the cache holds another row (with the ideal tables, which
     /// have one row, only once), out of line so that the per-peak loop keeps its registers (a
     /// [`FeatureRows`] live across it cost the Cortex-M4F ≈ 360 instructions per hop).
     #[inline(never)]
-    fn refill_cache(
-        &self,
-        cache: &mut CachedRow,
-        rows: &FeatureRows<'_>,
-        fi: usize,
-        noise_mag: Feature,
-    ) -> Feature {
+    fn refill_cache(&self, cache: &mut RowCache, rows: &FeatureRows<'_>, fi: usize) -> Feature {
+        let noise_mag = rows.noise(fi);
         let entries = rows
             .row(fi)
             .iter()
@@ -562,7 +472,7 @@ impl CurveBuilder {
     #[inline(always)]
     fn accumulate_group<const G: usize>(
         &self,
-        cache: &CachedRow,
+        cache: &RowCache,
         noise_mag: Feature,
         ys: [Feature; G],
         weights: [f32; G],
@@ -588,7 +498,7 @@ impl CurveBuilder {
     #[allow(clippy::too_many_arguments)]
     fn power_loop<const G: usize, const S: bool>(
         &self,
-        cache: &CachedRow,
+        cache: &RowCache,
         noise_mag: Feature,
         ys: [Feature; G],
         weights: [f32; G],
@@ -612,7 +522,7 @@ impl CurveBuilder {
     #[inline(always)]
     fn group_loop<const G: usize, const S: bool, const D: bool, const P2: u8>(
         &self,
-        cache: &CachedRow,
+        cache: &RowCache,
         noise_mag: Feature,
         ys: [Feature; G],
         weights: [f32; G],
@@ -1047,7 +957,6 @@ mod tests {
             fi: rows[i],
             y: [rnd() * 1.5, rnd() * 1.5, rnd() * 1.5],
             weight: 0.2 + rnd(),
-            noise: rows_of_kind.noise(rows[i]),
         });
         for n in 0..=peaks.len() {
             let (mut batch, mut single) = ([0.125f32; 72], [0.125f32; 72]);
@@ -1092,7 +1001,7 @@ mod tests {
         let special = [0.0, 1e-30, 1e30, -2.0, f32::INFINITY, f32::NAN];
         for (qn, power) in [
             (72usize, DistancePower::One),
-            (71, DistancePower::ThreeHalves),
+            (73, DistancePower::ThreeHalves),
             (72, DistancePower::Two),
             (7, DistancePower::ThreeHalves),
         ] {
@@ -1122,12 +1031,10 @@ mod tests {
                     if (i + k) % 7 == 0 {
                         y[k % 3] = special[(i + k) % special.len()];
                     }
-                    let fi = usize::from(k >= 2);
                     PeakFeature {
-                        fi,
+                        fi: usize::from(k >= 2),
                         y,
                         weight: 0.2 + rnd(),
-                        noise: table.rows(b.features).noise(fi),
                     }
                 });
                 let start: [f32; 128] = core::array::from_fn(|_| rnd());
@@ -1283,17 +1190,11 @@ mod tests {
                 // Two peaks of one row in one pass.
                 let y2 = [rnd(), rnd() * 2.0, rnd()];
                 let peaks = [
-                    PeakFeature {
-                        fi,
-                        y,
-                        weight: 0.3,
-                        noise: table.rows(b.features).noise(fi),
-                    },
+                    PeakFeature { fi, y, weight: 0.3 },
                     PeakFeature {
                         fi,
                         y: y2,
                         weight: 1.7,
-                        noise: table.rows(b.features).noise(fi),
                     },
                 ];
                 let (mut batch, mut single) = (start, start);

@@ -31,23 +31,6 @@ pub struct FrameDiagnostics {
     pub mean_peak_weight: f32,
 }
 
-/// Orders `peaks` so that peaks of equal table row and noise point are adjacent (a stable
-/// insertion sort by the first appearance of each (row, point); at most [`MAX_PEAKS`] entries).
-fn sort_by_noise_point(peaks: &mut [PeakFeature]) {
-    let mut done = 0;
-    while done < peaks.len() {
-        let key = (peaks[done].fi, peaks[done].noise);
-        let mut end = done + 1;
-        for i in done + 1..peaks.len() {
-            if (peaks[i].fi, peaks[i].noise) == key {
-                peaks[end..=i].rotate_right(1);
-                end += 1;
-            }
-        }
-        done = end;
-    }
-}
-
 /// What a frame gives the tracking stages.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameResult {
@@ -82,7 +65,7 @@ pub struct SimilarityFrame {
     onset: OnsetState,
     /// Blind self-calibration of the cardioids.
     capsules: CapsuleCalibrationState,
-    /// The measured stationary background the noisy references mix toward.
+    /// The measured stationary background (the noise-field report).
     background: BackgroundFieldState,
     /// The estimate the self-calibration starts from at every reset.
     capsule_start: CapsuleEstimate,
@@ -167,8 +150,7 @@ impl SimilarityFrame {
     /// Restarts the background field with `settings` (nothing measured yet).
     pub fn reset_background(&mut self, settings: BackgroundField) {
         let fs = self.fs;
-        let kind = self.curves.features;
-        self.background.reset(settings, kind, fs, fs / HOP as f32);
+        self.background.reset(settings, fs, fs / HOP as f32);
     }
 
     /// Sets the estimate the self-calibration starts from and applies it now.
@@ -198,8 +180,7 @@ impl SimilarityFrame {
         spectra.transform_omni_fold_cardioids(frame);
         let calibrating = c.capsule_calibration.enabled;
         self.pick_peaks(spectra, clean, calibrating);
-        let (n_used, weight_sum) =
-            self.peak_features(spectra, table, used, c.direct_sound, calibrating);
+        let (n_used, weight_sum) = self.peak_features(spectra, used, c.direct_sound, calibrating);
         let q = table.num_azimuths();
         self.curves.frame_curve(
             &mut self.row_cache,
@@ -256,7 +237,7 @@ impl SimilarityFrame {
         if calibrating {
             self.capsules.begin_frame(&self.omni_power, lo, hi, clean);
         }
-        if self.background.settings().enabled {
+        if cfg!(feature = "noise-field") && self.background.settings().enabled {
             self.background.begin_frame(&self.omni_power, lo, hi, clean);
         }
     }
@@ -267,15 +248,12 @@ impl SimilarityFrame {
     fn peak_features(
         &mut self,
         spectra: &FrameSpectra,
-        table: &ReferenceTable<'_>,
         used: &mut [PeakFeature; MAX_PEAKS],
         ds: DirectSound,
         calibrating: bool,
     ) -> (usize, f32) {
         let omni = spectra.omni();
-        let rows = table.rows(self.curves.features);
-        let measuring = self.background.settings().enabled;
-        let mixing = measuring && self.background.settings().references;
+        let measuring = cfg!(feature = "noise-field") && self.background.settings().enabled;
         let mut weight_sum = 0.0f32;
         let mut n_used = 0usize;
         // On x86_64 the cardioid bins of all peaks first, two recursions at a time (the Cortex-M4F
@@ -298,16 +276,9 @@ impl SimilarityFrame {
             } else {
                 xc
             };
-            let fi = self.bin_rows[k] as usize;
             if measuring {
                 self.background.add_peak(k, omni[k], &xc);
             }
-            let noise = if mixing {
-                let band = self.background.band_of_bin(k);
-                self.background.noise_point(band, rows.noise(fi))
-            } else {
-                rows.noise(fi)
-            };
             let Some(y) = self.curves.features.of_bin(omni[k], p0, xc) else {
                 continue;
             };
@@ -320,25 +291,16 @@ impl SimilarityFrame {
             if !(w > 0.0) {
                 continue;
             }
+            let fi = self.bin_rows[k] as usize;
             let Some(slot) = used.get_mut(n_used) else {
                 break;
             };
-            *slot = PeakFeature {
-                fi,
-                y,
-                weight: w,
-                noise,
-            };
+            *slot = PeakFeature { fi, y, weight: w };
             weight_sum += w;
             n_used += 1;
         }
         if measuring {
             self.background.end_frame();
-        }
-        if mixing {
-            // Peaks of one noise point together: the curve builder then computes each point's
-            // per-azimuth constants once per frame.
-            sort_by_noise_point(&mut used[..n_used]);
         }
         (n_used, weight_sum)
     }

@@ -655,7 +655,6 @@ mod tests {
             fi: 0,
             y,
             weight: 1.0,
-            noise: [0.5; 3],
         }
     }
 
@@ -814,7 +813,6 @@ mod tests {
             fi: 0,
             y: [0.5; 3],
             weight: 1.0,
-            noise: [0.5; 3],
         }
     }
 
@@ -902,7 +900,6 @@ mod tests {
             fi: 0,
             y: [f32::NAN, f32::INFINITY, -1.0],
             weight: f32::NAN,
-            noise: [0.5; 3],
         }; 4];
         for _ in 0..50 {
             s.update(
@@ -985,8 +982,7 @@ mod tests {
                         fi: 0,
                         y: [a, b, c],
                         weight: w,
-                        noise: [0.5; 3],
-                    })
+                                })
                     .collect();
                 s.update(&MultiTrack::DEFAULT, &peaks, gate, Some((az, b)));
                 let mut ids = [0u16; MAX_TRACKS];
