@@ -15,12 +15,6 @@ pub mod localization;
 pub mod serial;
 pub mod simulation;
 
-// The modules `evaluation::multi_talker_eval` names at the crate root; every other user names a
-// module by its path.
-pub use evaluation::plots;
-pub use io::{ground_truth, stdout_text, text_file, wav_io};
-pub use simulation::multi_talker_scene;
-
 use clap::{CommandFactory, FromArgMatches, Subcommand};
 use error::{Result, SimError};
 use std::ffi::OsString;

@@ -36,8 +36,8 @@
 //! the onset and the hangover of every track too.
 
 use crate::error::{Result, SimError};
-use crate::multi_talker_scene::{truth_path, MANIFEST_HEADER};
-use crate::wav_io::{read_recording, InputLayout, Recording};
+use crate::io::wav_io::{read_recording, InputLayout, Recording};
+use crate::simulation::multi_talker_scene::{truth_path, MANIFEST_HEADER};
 use cma_core::multi_track::TalkerTrack;
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 use serde::Serialize;
@@ -146,7 +146,7 @@ pub fn write_tracks_file(
 ) -> Result<usize> {
     let rec = read_recording(input, layout)?;
     let frames = track_frames(&rec, config, table)?;
-    crate::wav_io::write_atomically(path, |tmp| {
+    crate::io::wav_io::write_atomically(path, |tmp| {
         let f = std::fs::File::create(tmp).map_err(|e| SimError::io(tmp, e))?;
         let mut w = std::io::BufWriter::new(f);
         write_tracks_csv(&mut w, &frames)
@@ -202,7 +202,7 @@ impl TalkerTruth {
 
     /// Reads a truth file.
     pub fn read(path: &Path) -> Result<Self> {
-        let text = crate::text_file::read(path)?;
+        let text = crate::io::text_file::read(path)?;
         Self::parse(&text).map_err(|(line, reason)| SimError::BadCsv {
             path: path.to_path_buf(),
             line,
@@ -228,8 +228,8 @@ impl TalkerTruth {
         let (t0, a0, _) = self.rows[i];
         match self.rows.get(i + 1) {
             Some(&(t1, a1, _)) if t1 - t0 < 0.5 && t >= t0 => {
-                let d = crate::ground_truth::wrap180(a1 - a0);
-                crate::ground_truth::wrap180(a0 + d * (t - t0) / (t1 - t0))
+                let d = crate::io::ground_truth::wrap180(a1 - a0);
+                crate::io::ground_truth::wrap180(a0 + d * (t - t0) / (t1 - t0))
             }
             _ => a0,
         }
@@ -457,7 +457,7 @@ pub fn best_matching(tracks: &[f64], talkers: &[f64]) -> Vec<(usize, usize, f64)
             if used[j] {
                 continue;
             }
-            let e = crate::ground_truth::wrap180(tracks[i] - talkers[j]).abs();
+            let e = crate::io::ground_truth::wrap180(tracks[i] - talkers[j]).abs();
             if e <= TOLERANCE_DEG {
                 used[j] = true;
                 cur.push((i, j, e));
@@ -577,8 +577,10 @@ pub fn score(
                 && noise.iter().any(|n| {
                     f.t_s >= n.on_s
                         && f.t_s < n.off_s
-                        && crate::ground_truth::wrap180(f64::from(t.azimuth_deg) - n.azimuth_deg)
-                            .abs()
+                        && crate::io::ground_truth::wrap180(
+                            f64::from(t.azimuth_deg) - n.azimuth_deg,
+                        )
+                        .abs()
                             <= TOLERANCE_DEG
                 })
         });
@@ -607,7 +609,7 @@ pub fn score(
             .iter()
             .filter(|x| {
                 !x.0 && f.tracks.iter().any(|t| {
-                    crate::ground_truth::wrap180(f64::from(t.azimuth_deg) - x.1).abs()
+                    crate::io::ground_truth::wrap180(f64::from(t.azimuth_deg) - x.1).abs()
                         <= TOLERANCE_DEG
                 })
             })
@@ -652,7 +654,7 @@ pub fn is_multi_talker_folder(dir: &Path) -> bool {
 /// Reads a multi-talker manifest.
 pub fn read_manifest(dir: &Path) -> Result<Vec<Entry>> {
     let path = dir.join("manifest.csv");
-    let text = crate::text_file::read(&path)?;
+    let text = crate::io::text_file::read(&path)?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate().skip(1) {
         if line.trim().is_empty() {
@@ -712,7 +714,7 @@ pub fn evaluate_scene_with_plot(
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        crate::plots::multi_talker_plot(
+        crate::evaluation::plots::multi_talker_plot(
             &plots.join(format!("{name}.png")),
             &name,
             &frames,
@@ -739,7 +741,7 @@ pub fn evaluate(
 }
 
 /// [`evaluate`], and with `plots` an existing folder, one PNG per scene in it
-/// ([`crate::plots::multi_talker_plot`]).
+/// ([`crate::evaluation::plots::multi_talker_plot`]).
 pub fn evaluate_with_plots(
     dir: &Path,
     config: LocatorConfig,
@@ -899,8 +901,8 @@ pub fn run(a: &crate::commands::eval::EvalArgs) -> Result<()> {
     if a.json {
         let json =
             serde_json::to_string_pretty(&report).map_err(|e| SimError::Other(e.to_string()))?;
-        crate::stdout_text::print_text(&format!("{json}\n"))
+        crate::io::stdout_text::print_text(&format!("{json}\n"))
     } else {
-        crate::stdout_text::print_text(&format_table(&report))
+        crate::io::stdout_text::print_text(&format_table(&report))
     }
 }
