@@ -91,8 +91,8 @@ pub mod tracking;
 #[cfg(target_arch = "x86_64")]
 pub(crate) use analysis::fft_x86;
 pub use analysis::{
-    background_field, capsule_calibration, direct_sound, features, frame_level, frame_spectra,
-    peak_picker, spectrum,
+    background_field, band_floors, capsule_calibration, direct_sound, features, frame_level,
+    frame_spectra, peak_picker, spectrum,
 };
 pub use arith::{angle, fast_exp, fast_math, trig};
 pub use baselines::{bformat, fdiv, intensity, tdiv};

@@ -28,8 +28,7 @@
 //! State: per band a floor, 4 running values and a count (≈ 0.1 KB in all). Work per hop: a sum
 //! over the analysis band's omni powers, and on background bands four multiply–adds per peak.
 
-use crate::noise_floor::{NoiseFloor, NoiseGate};
-use crate::power_ramp::power_ratio_from_db;
+use crate::band_floors::BandFloors;
 use crate::reference_table::Feature;
 use crate::{CARDIOIDS, NUM_BINS};
 use microfft::Complex32;
@@ -39,11 +38,6 @@ pub const BG_BANDS: usize = 2;
 
 /// Upper edges of the bands, Hz (the last band runs to Nyquist).
 pub const BG_BAND_EDGES_HZ: [f32; BG_BANDS - 1] = [1000.0];
-
-/// The band of frequency `f_hz`: the number of edges at or below it.
-fn band_of_frequency(f_hz: f32) -> usize {
-    BG_BAND_EDGES_HZ.iter().filter(|e| f_hz >= **e).count()
-}
 
 /// Settings of the background field.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -115,13 +109,10 @@ impl FrameSums {
 #[derive(Debug, Clone, Copy)]
 pub struct BackgroundFieldState {
     settings: BackgroundField,
-    /// Each band's bins `start..end`.
-    band_bins: [(u16, u16); BG_BANDS],
-    floor: [NoiseFloor; BG_BANDS],
-    background: [bool; BG_BANDS],
+    /// Each band's power, floor and whether it is background in this frame.
+    bands: BandFloors<BG_BANDS>,
     frame: [FrameSums; BG_BANDS],
     means: [BandMeans; BG_BANDS],
-    background_ratio: f32,
     pole: f32,
 }
 
@@ -131,15 +122,12 @@ impl BackgroundFieldState {
     pub const fn idle() -> Self {
         Self {
             settings: BackgroundField::OFF,
-            band_bins: [(0, 0); BG_BANDS],
-            floor: [NoiseFloor::idle(); BG_BANDS],
-            background: [false; BG_BANDS],
+            bands: BandFloors::idle(),
             frame: [FrameSums::ZERO; BG_BANDS],
             means: [BandMeans {
                 active: [0.5; CARDIOIDS],
                 n: 0.0,
             }; BG_BANDS],
-            background_ratio: 1.0,
             pole: 1.0,
         }
     }
@@ -149,23 +137,13 @@ impl BackgroundFieldState {
     pub fn reset(&mut self, settings: BackgroundField, fs: f32, frames_per_s: f32) {
         *self = Self::idle();
         self.settings = settings;
-        let band_of = |k: usize| band_of_frequency(crate::spectrum::bin_frequency(k, fs));
-        for (b, range) in self.band_bins.iter_mut().enumerate() {
-            let start = (0..NUM_BINS)
-                .position(|k| band_of(k) >= b)
-                .unwrap_or(NUM_BINS);
-            let end = (0..NUM_BINS)
-                .position(|k| band_of(k) > b)
-                .unwrap_or(NUM_BINS);
-            *range = (start as u16, end as u16);
-        }
-        let gate = NoiseGate {
-            enabled: true,
-            rise_db_per_s: settings.rise_db_per_s,
-            ..NoiseGate::OFF
-        };
-        self.floor = [NoiseFloor::new(&gate, frames_per_s); BG_BANDS];
-        self.background_ratio = power_ratio_from_db(settings.background_db);
+        self.bands = BandFloors::new(
+            &BG_BAND_EDGES_HZ,
+            fs,
+            frames_per_s,
+            settings.rise_db_per_s,
+            settings.background_db,
+        );
         self.pole = 1.0 / settings.memory_frames;
     }
 
@@ -175,41 +153,19 @@ impl BackgroundFieldState {
         &self.settings
     }
 
-    /// The band of bin `k`.
-    #[inline]
-    #[must_use]
-    pub fn band_of_bin(&self, k: usize) -> usize {
-        let k = k as u16;
-        self.band_bins[..BG_BANDS - 1]
-            .iter()
-            .filter(|(_, end)| *end <= k)
-            .count()
-    }
-
     /// Starts a frame from the omni powers of the bins `lo..=hi` (the analysis band): each band's
     /// power, floor and whether it is background (never when not `clean`).
     pub fn begin_frame(&mut self, omni_power: &[f32; NUM_BINS], lo: usize, hi: usize, clean: bool) {
-        for b in 0..BG_BANDS {
-            let (start, end) = self.band_bins[b];
-            let start = (start as usize).max(lo);
-            let end = (end as usize).min(hi + 1);
-            let p: f32 = omni_power.get(start..end).map_or(0.0, |s| s.iter().sum());
-            self.background[b] = false;
-            self.frame[b] = FrameSums::ZERO;
-            if !(p > 0.0) || !p.is_finite() {
-                continue;
-            }
-            self.floor[b].update(p);
-            self.background[b] = clean && p <= self.floor[b].floor() * self.background_ratio;
-        }
+        self.bands.begin_frame(omni_power, lo, hi, clean);
+        self.frame = [FrameSums::ZERO; BG_BANDS];
     }
 
     /// Adds a peak (bin `k`, omni `w`, cardioids `x` as the similarity sees them) to its band's
     /// sums when the band is background in this frame.
     #[inline]
     pub fn add_peak(&mut self, k: usize, w: Complex32, x: &[Complex32; CARDIOIDS]) {
-        let band = self.band_of_bin(k);
-        if !self.background[band] {
+        let band = self.bands.band_of_bin(k);
+        if !self.bands.is_background(band) {
             return;
         }
         let s = &mut self.frame[band];
@@ -350,7 +306,7 @@ impl BackgroundFieldState {
     #[must_use]
     pub fn band_summary(&self, band: usize) -> Option<BackgroundBand> {
         let m = self.means.get(band)?;
-        let floor = self.floor.get(band)?.floor();
+        let floor = self.bands.floor.get(band)?.floor();
         if !(m.n > 0.0) || !(floor > 0.0) || !floor.is_finite() {
             return None;
         }

@@ -79,7 +79,7 @@
 //! frame the four bands' capsule noise (a 4×4 factorisation and three solves each), solutions and
 //! corrections.
 
-use crate::noise_floor::{NoiseFloor, NoiseGate};
+use crate::band_floors::BandFloors;
 use crate::power_ramp::power_ratio_from_db;
 use crate::{CARDIOIDS, NUM_BINS};
 use microfft::Complex32;
@@ -89,7 +89,6 @@ pub const CAL_BANDS: usize = 4;
 
 /// Upper edges of the bands, Hz (the last band runs to Nyquist).
 pub const CAL_BAND_EDGES_HZ: [f32; CAL_BANDS - 1] = [500.0, 1000.0, 2000.0];
-const _: () = assert!(CAL_BANDS == 4, "band_of_bin compares with three edges");
 
 /// Background peaks per band at which the confidence is ½.
 pub const CONFIDENT_PEAKS: f32 = 1000.0;
@@ -721,20 +720,10 @@ pub struct CapsuleCalibrationState {
     /// This frame's sums, before normalisation by the band's power.
     frame: [BandSums; CAL_BANDS],
     frame_used: bool,
-    /// Bins [start, end) of each band.
-    band_bins: [(u16, u16); CAL_BANDS],
-    /// Tracked background power of each band.
-    band_floor: [NoiseFloor; CAL_BANDS],
-    /// This frame's power of each band.
-    band_power: [f32; CAL_BANDS],
-    /// Whether this frame is background in each band.
-    band_background: [bool; CAL_BANDS],
+    /// Each band's power, floor and whether it is background in this frame.
+    bands: BandFloors<CAL_BANDS>,
     /// Recent share of all-background frames whose curve pointed somewhere.
     directional_share: f32,
-    /// A band floor before its first frame (its rise per frame set), for resets.
-    fresh_floor: NoiseFloor,
-    /// Band power over its floor up to which the band is background (power ratio).
-    background_ratio: f32,
     /// Band power over its floor up to which a background band is quiet ([`QUIET_DB`]).
     quiet_ratio: f32,
     accepted: CapsuleEstimate,
@@ -787,13 +776,8 @@ impl CapsuleCalibrationState {
             batch_frames: 0,
             frame: [BandSums::ZERO; CAL_BANDS],
             frame_used: false,
-            band_bins: [(0, 0); CAL_BANDS],
-            band_floor: [NoiseFloor::idle(); CAL_BANDS],
-            band_power: [0.0; CAL_BANDS],
-            band_background: [false; CAL_BANDS],
+            bands: BandFloors::idle(),
             directional_share: 0.0,
-            fresh_floor: NoiseFloor::idle(),
-            background_ratio: 1.0,
             quiet_ratio: 1.0,
             accepted: CapsuleEstimate::IDEAL,
             correction: [Correction::IDENTITY; CAL_BANDS],
@@ -826,23 +810,13 @@ impl CapsuleCalibrationState {
     ) {
         *self = Self::idle();
         self.settings = settings;
-        let band_of = |k: usize| band_of_frequency(crate::spectrum::bin_frequency(k, fs));
-        for (b, range) in self.band_bins.iter_mut().enumerate() {
-            let start = (0..NUM_BINS)
-                .position(|k| band_of(k) >= b)
-                .unwrap_or(NUM_BINS);
-            let end = (0..NUM_BINS)
-                .position(|k| band_of(k) > b)
-                .unwrap_or(NUM_BINS);
-            *range = (start as u16, end as u16);
-        }
-        let gate = NoiseGate {
-            enabled: true,
-            rise_db_per_s: FLOOR_RISE_DB_PER_S,
-            ..NoiseGate::OFF
-        };
-        self.fresh_floor = NoiseFloor::new(&gate, frames_per_s);
-        self.background_ratio = power_ratio_from_db(settings.background_db);
+        self.bands = BandFloors::new(
+            &CAL_BAND_EDGES_HZ,
+            fs,
+            frames_per_s,
+            FLOOR_RISE_DB_PER_S,
+            settings.background_db,
+        );
         self.quiet_ratio = power_ratio_from_db(QUIET_DB);
         self.forget = 1.0 - 1.0 / settings.memory_frames;
         self.restore(start);
@@ -861,8 +835,7 @@ impl CapsuleCalibrationState {
         self.update_corrections();
         self.frame = [BandSums::ZERO; CAL_BANDS];
         self.frame_used = false;
-        self.band_floor = [self.fresh_floor; CAL_BANDS];
-        self.band_background = [false; CAL_BANDS];
+        self.bands.restart();
         self.directional_share = 0.0;
         self.batch = [BandSums::ZERO; CAL_BANDS];
         self.batch_frames = 0;
@@ -894,33 +867,11 @@ impl CapsuleCalibrationState {
         self.accepted.overall_confidence()
     }
 
-    /// The band of bin `k` (three comparisons: [`CAL_BANDS`] is 4).
-    #[inline]
-    fn band_of_bin(&self, k: usize) -> usize {
-        let k = k as u16;
-        (self.band_bins[0].1 <= k) as usize
-            + (self.band_bins[1].1 <= k) as usize
-            + (self.band_bins[2].1 <= k) as usize
-    }
-
-    /// Starts a frame: from the omni powers `omni_power` of the bins `lo..=hi` (the analysis band)
+    /// Starts a frame from the omni powers `omni_power` of the bins `lo..=hi` (the analysis band):
     /// each band's power, its tracked floor and whether the band is background in this frame (its
     /// power within [`CapsuleCalibration::background_db`] of the floor; never when not `clean`).
     pub fn begin_frame(&mut self, omni_power: &[f32; NUM_BINS], lo: usize, hi: usize, clean: bool) {
-        for b in 0..CAL_BANDS {
-            let (start, end) = self.band_bins[b];
-            let start = (start as usize).max(lo);
-            let end = (end as usize).min(hi + 1);
-            let p: f32 = omni_power.get(start..end).map_or(0.0, |s| s.iter().sum());
-            self.band_power[b] = p;
-            self.band_background[b] = false;
-            if !(p > 0.0) || !p.is_finite() {
-                continue;
-            }
-            self.band_floor[b].update(p);
-            self.band_background[b] =
-                clean && p <= self.band_floor[b].floor() * self.background_ratio;
-        }
+        self.bands.begin_frame(omni_power, lo, hi, clean);
     }
 
     /// Corrects the cardioid values `x` of bin `k` (omni `w`) to the ideal capsule; when the bin's
@@ -933,8 +884,8 @@ impl CapsuleCalibrationState {
         w: Complex32,
         x: [Complex32; CARDIOIDS],
     ) -> [Complex32; CARDIOIDS] {
-        let band = self.band_of_bin(k);
-        if self.band_background[band] && self.settings.adapt {
+        let band = self.bands.band_of_bin(k);
+        if self.bands.is_background(band) && self.settings.adapt {
             let re = |p: Complex32, q: Complex32| p.re * q.re + p.im * q.im;
             let s = &mut self.frame[band];
             s.ww += w.re * w.re + w.im * w.im;
@@ -980,7 +931,7 @@ impl CapsuleCalibrationState {
         // point somewhere too), such frames' curves pointing somewhere mean a directional
         // background (a fan, a loudspeaker switched on): nothing is learned while it lasts, from
         // them or from the background bands of other frames.
-        if self.band_background.iter().all(|b| *b) && self.confidence() >= DIRECTIONAL_CONFIDENCE {
+        if self.bands.all_background() && self.confidence() >= DIRECTIONAL_CONFIDENCE {
             let hit = if directional { 1.0 } else { 0.0 };
             self.directional_share += DIRECTIONAL_POLE * (hit - self.directional_share);
         }
@@ -996,7 +947,7 @@ impl CapsuleCalibrationState {
         });
         for band in 0..CAL_BANDS {
             let add = &self.frame[band];
-            let p = self.band_power[band];
+            let p = self.bands.power(band);
             // Each band's sums in units of its power, so that loud and quiet frames weigh alike.
             if add.n > 0.0 && p > 0.0 {
                 let inv = 1.0 / p;
@@ -1004,7 +955,7 @@ impl CapsuleCalibrationState {
                 s.add_scaled(add, 1.0, inv);
                 // At its floor the band holds little of the talker's reverberation: the frame
                 // teaches the whole deviation, not only its part across the talker's patterns.
-                let quiet = p <= self.band_floor[band].floor() * self.quiet_ratio;
+                let quiet = p <= self.bands.floor(band) * self.quiet_ratio;
                 let talker = if quiet { None } else { talker };
                 s.add_plane(add, inv * add.ww, talker);
             }
@@ -1091,8 +1042,8 @@ mod tests {
     ) {
         let mut rng = Lcg(seed);
         for _ in 0..frames {
-            st.band_background = [true; CAL_BANDS];
-            st.band_power = [1.0; CAL_BANDS];
+            st.bands.background = [true; CAL_BANDS];
+            st.bands.power = [1.0; CAL_BANDS];
             for k in [10usize, 30, 60, 120] {
                 let mut w = cn(&mut rng, 1.0);
                 let mut x = cn(&mut rng, KAPPA);
@@ -1139,15 +1090,15 @@ mod tests {
     #[test]
     fn bands_cover_the_spectrum_in_order() {
         let st = fresh();
-        assert_eq!(st.band_bins[0].0, 0);
-        assert_eq!(st.band_bins[CAL_BANDS - 1].1 as usize, NUM_BINS);
-        for w in st.band_bins.windows(2) {
+        assert_eq!(st.bands.bins[0].0, 0);
+        assert_eq!(st.bands.bins[CAL_BANDS - 1].1 as usize, NUM_BINS);
+        for w in st.bands.bins.windows(2) {
             assert_eq!(w[0].1, w[1].0);
         }
         // 500 Hz at 12 kHz is bin 21.33: bin 21 is below, bin 22 above.
-        assert_eq!(st.band_of_bin(21), 0);
-        assert_eq!(st.band_of_bin(22), 1);
-        assert_eq!(st.band_of_bin(NUM_BINS - 1), CAL_BANDS - 1);
+        assert_eq!(st.bands.band_of_bin(21), 0);
+        assert_eq!(st.bands.band_of_bin(22), 1);
+        assert_eq!(st.bands.band_of_bin(NUM_BINS - 1), CAL_BANDS - 1);
         // An edge belongs to the band above it.
         let bands = [0.0, 499.9, 500.0, 999.0, 1000.0, 2000.0, 8000.0, f32::NAN];
         assert_eq!(bands.map(band_of_frequency), [0, 0, 1, 1, 2, 3, 3, 0]);
@@ -1348,7 +1299,7 @@ mod tests {
         let mut above = fresh();
         learn(&mut above);
         let mut at_floor = fresh();
-        for floor in &mut at_floor.band_floor {
+        for floor in &mut at_floor.bands.floor {
             floor.update(1.0);
         }
         learn(&mut at_floor);
