@@ -41,7 +41,8 @@ pub struct SceneArgs {
     pub rir: Option<PathBuf>,
     /// A shoebox room by the image-source method, `LxWxH:RT60` in metres and seconds (e.g.
     /// `6x5x3:0.45`): the array placed from --seed at least 1 m from the walls, the talker at
-    /// --distance (instead of a measured --rir).
+    /// --distance (nearer where a wall is closer), each of its places with its own reflections
+    /// (instead of a measured --rir).
     #[arg(long, conflicts_with = "rir")]
     pub room: Option<String>,
     /// Talker distance from the array in a --room, m.
@@ -120,7 +121,7 @@ pub fn run(a: &SceneArgs) -> Result<()> {
         .iter()
         .map(|s| noise_source::NoiseSource::parse(s))
         .collect::<Result<Vec<_>>>()?;
-    let (room, source_room) = rooms(a, motion.azimuth_at(0.0))?;
+    let (room, source_room) = rooms(a)?;
     let spec = scene::SceneSpec {
         source,
         rate: a.rate,
@@ -146,12 +147,12 @@ pub fn run(a: &SceneArgs) -> Result<()> {
     Ok(())
 }
 
-/// The talker's room response and the room of the noise sources: a shoebox (--room; the talker at
-/// `talker_azimuth_deg`, --distance away, at 1.2–1.7 m height), a measured response (--rir) or free field.
+/// The talker's room and the room of the noise sources: a shoebox (--room; the talker --distance
+/// away at 1.2–1.7 m height, each place with its own response), a measured response (--rir,
+/// rotated to the talker's azimuths) or free field.
 pub(crate) fn rooms(
     a: &SceneArgs,
-    talker_azimuth_deg: f64,
-) -> Result<(Option<scene::RoomResponse>, noise_source::SourceRoom)> {
+) -> Result<(Option<scene::TalkerRoom>, noise_source::SourceRoom)> {
     if let Some(spec) = &a.room {
         let shoebox = room::ShoeBox::parse(spec)?;
         let array = shoebox.array_position(a.seed);
@@ -160,15 +161,21 @@ pub(crate) fn rooms(
             .clamp(-1.0, 1.0)
             .asin()
             .to_degrees();
-        let talker = shoebox.place(array, talker_azimuth_deg, elevation, a.distance);
         let length = a.rir_length.min(1.5 * shoebox.rt60).max(0.1);
-        let response = shoebox.response(array, talker, a.rate, length);
+        let talker = scene::TalkerRoom::ShoeBox(scene::ShoeBoxTalker {
+            room: shoebox,
+            array,
+            elevation_deg: elevation,
+            distance_m: a.distance,
+            length_s: length,
+            rate: a.rate,
+        });
         let source_room = noise_source::SourceRoom::ShoeBox {
             room: shoebox,
             array,
             length_s: length,
         };
-        return Ok((Some(response), source_room));
+        return Ok((Some(talker), source_room));
     }
     let room = a
         .rir
@@ -179,7 +186,7 @@ pub(crate) fn rooms(
         Some(r) => noise_source::SourceRoom::Measured(r.clone()),
         None => noise_source::SourceRoom::Free,
     };
-    Ok((room, source_room))
+    Ok((room.map(scene::TalkerRoom::Rotated), source_room))
 }
 
 /// Writes the noise sources' truth next to the scene (`NAME.noise.csv`), when there are any.

@@ -187,7 +187,7 @@ pub fn beam_report(data: &Path, snr_db: f64, rate: u32) -> Result<Vec<BeamRow>> 
             lead_in_s: 0.25,
             motion: Motion::Steps(vec![(0.0, az)]),
             snr_db: Some(snr_db),
-            room,
+            room: room.map(scene::TalkerRoom::Rotated),
             peak_dbfs: -3.0,
             seed: 7,
             array: Default::default(),

@@ -287,7 +287,7 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             lead_in_s: 0.0,
             motion: motion.clone(),
             snr_db: None,
-            room: spec.rooms.get(k).cloned(),
+            room: spec.rooms.get(k).cloned().map(scene::TalkerRoom::Rotated),
             peak_dbfs: 0.0,
             seed: spec.seed,
             array: crate::simulation::array_model::ArrayModel::default(),
@@ -472,8 +472,8 @@ pub fn run(a: &crate::commands::scene::SceneArgs, n: u8) -> Result<()> {
         let mut rooms = Vec::with_capacity(n);
         let mut source_room = crate::simulation::noise_source::SourceRoom::Free;
         for az in &azimuths {
-            let (r, s) = crate::commands::scene::rooms(a, *az)?;
-            rooms.extend(r);
+            let (r, s) = crate::commands::scene::rooms(a)?;
+            rooms.extend(r.map(|r| r.response(*az)));
             source_room = s;
         }
         (rooms, source_room)

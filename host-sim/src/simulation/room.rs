@@ -108,7 +108,8 @@ impl ShoeBox {
     }
 
     /// Where a source at `azimuth_deg`, `elevation_deg` and `distance_m` from the array at `array`
-    /// lies, moved inside the room if the wanted point is not.
+    /// lies: on that ray, brought closer to the array when the wanted point is not inside the room
+    /// (at least the wall clearance from every wall), so that its direction stays the wanted one.
     #[must_use]
     pub fn place(
         &self,
@@ -118,10 +119,22 @@ impl ShoeBox {
         distance_m: f64,
     ) -> [f64; 3] {
         let (a, e) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
+        let dir = [e.cos() * a.cos(), e.cos() * a.sin(), e.sin()];
+        // The largest distance along the ray that stays inside the clearance box.
+        let mut reach = distance_m;
+        for k in 0..3 {
+            let (lo, hi) = (WALL_CLEARANCE, self.dims[k] - WALL_CLEARANCE);
+            if dir[k] > 1e-12 {
+                reach = reach.min((hi - array[k]) / dir[k]);
+            } else if dir[k] < -1e-12 {
+                reach = reach.min((lo - array[k]) / dir[k]);
+            }
+        }
+        let reach = reach.max(0.0);
         self.clamp([
-            array[0] + distance_m * e.cos() * a.cos(),
-            array[1] + distance_m * e.cos() * a.sin(),
-            array[2] + distance_m * e.sin(),
+            array[0] + reach * dir[0],
+            array[1] + reach * dir[1],
+            array[2] + reach * dir[2],
         ])
     }
 
@@ -250,6 +263,29 @@ mod tests {
         let (ix, iy): (f64, f64) =
             (t - 3..t + 4).fold((0.0, 0.0), |(a, b), i| (a + w[i] * x[i], b + w[i] * y[i]));
         assert!((iy.atan2(ix).to_degrees() - 60.0).abs() < 1.0);
+    }
+
+    /// A place beyond a wall is brought closer along its ray: the direction stays the wanted one.
+    #[test]
+    fn a_place_beyond_a_wall_keeps_its_direction() {
+        let room = ShoeBox::parse("5x4x3:0.4").unwrap();
+        let array = [4.2, 1.0, 1.4];
+        for (az, el) in [(10.0, 0.0), (-75.0, 20.0), (160.0, -10.0), (45.0, 0.0)] {
+            let p = room.place(array, az, el, 3.0);
+            let d = [p[0] - array[0], p[1] - array[1], p[2] - array[2]];
+            let got_az = d[1].atan2(d[0]).to_degrees();
+            let got_el = d[2].atan2(d[0].hypot(d[1])).to_degrees();
+            assert!((got_az - az).abs() < 1e-9, "{az}: {got_az}");
+            assert!((got_el - el).abs() < 1e-9, "{el}: {got_el}");
+            for k in 0..3 {
+                assert!(
+                    p[k] >= WALL_CLEARANCE - 1e-9 && p[k] <= room.dims[k] - WALL_CLEARANCE + 1e-9
+                );
+            }
+        }
+        // Inside the room the wanted distance is kept.
+        let p = room.place(array, 180.0, 0.0, 1.5);
+        assert!((p[0] - 2.7).abs() < 1e-9 && (p[1] - 1.0).abs() < 1e-9);
     }
 
     #[test]

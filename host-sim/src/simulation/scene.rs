@@ -1,7 +1,8 @@
 //! `host-sim scene`: synthesises CMA1 recordings with ground truth — a talker (mono WAV or a
 //! synthetic speech-like source) on an azimuth track (static, jumps or circling), a 3-D diffuse
-//! noise field at a given SNR on the omni, and optionally a measured first-order room response
-//! rotated to the wanted azimuth.
+//! noise field at a given SNR on the omni, and optionally a room: a shoebox by the image-source
+//! method, each of the talker's places with its own response (a circling talker's from a 5° grid),
+//! or a measured first-order response rotated to the wanted azimuth.
 //!
 //! Diffuse noise has the exact second-order statistics of an isotropic 3-D field in first-order
 //! B-format (SN3D): W, X, Y, Z mutually uncorrelated, E\[X²\] = E\[Y²\] = E\[Z²\] = E\[W²\]/3. The capsules then
@@ -169,6 +170,64 @@ impl RoomResponse {
     }
 }
 
+/// The talker's room: where the talker's response at each place comes from.
+#[derive(Debug, Clone)]
+pub enum TalkerRoom {
+    /// One response (a measured one, `--rir`), rotated so that its direct sound comes from each of
+    /// the talker's azimuths: the room turns with the talker.
+    Rotated(RoomResponse),
+    /// A shoebox room (`--room`): each place's response computed by the image-source method where
+    /// the talker stands, so that every place has its own reflections.
+    ShoeBox(ShoeBoxTalker),
+}
+
+/// A talker in a shoebox room: the room, where the array is, and how far and how high the talker
+/// stands from it.
+#[derive(Debug, Clone, Copy)]
+pub struct ShoeBoxTalker {
+    /// The room.
+    pub room: crate::simulation::room::ShoeBox,
+    /// The array's position, m.
+    pub array: [f64; 3],
+    /// The talker's elevation seen from the array, degrees.
+    pub elevation_deg: f64,
+    /// The talker's distance from the array, m (shorter where a wall is closer).
+    pub distance_m: f64,
+    /// Length of each response, s.
+    pub length_s: f64,
+    /// Scene rate, Hz.
+    pub rate: u32,
+}
+
+/// Grid of the shoebox responses of a circling talker, degrees: each segment uses the response of
+/// the nearest grid place, turned by at most half a step to the segment's azimuth.
+const MOVING_GRID_DEG: f64 = 5.0;
+
+impl TalkerRoom {
+    /// The response of a talker at `azimuth_deg` (its direct sound from there).
+    #[must_use]
+    pub fn response(&self, azimuth_deg: f64) -> RoomResponse {
+        match self {
+            Self::Rotated(r) => r.clone(),
+            Self::ShoeBox(t) => {
+                let p = t
+                    .room
+                    .place(t.array, azimuth_deg, t.elevation_deg, t.distance_m);
+                t.room.response(t.array, p, t.rate, t.length_s)
+            }
+        }
+    }
+
+    /// Length of the responses, samples.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        match self {
+            Self::Rotated(r) => r.w.len(),
+            Self::ShoeBox(t) => ((t.length_s * f64::from(t.rate)) as usize).max(1),
+        }
+    }
+}
+
 /// What to synthesise.
 #[derive(Debug, Clone)]
 pub struct SceneSpec {
@@ -183,7 +242,7 @@ pub struct SceneSpec {
     /// SNR on the omni (talker power over its active part vs noise power), dB; `None`: no noise.
     pub snr_db: Option<f64>,
     /// Optional room response.
-    pub room: Option<RoomResponse>,
+    pub room: Option<TalkerRoom>,
     /// Peak level of the written file, dBFS.
     pub peak_dbfs: f64,
     /// Seed of the noise.
@@ -242,7 +301,7 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
                 if seg.iter().all(|v| *v == 0.0) {
                     continue;
                 }
-                for (o, h) in out.iter_mut().zip(room.rotated(*az)) {
+                for (o, h) in out.iter_mut().zip(room.response(*az).rotated(*az)) {
                     for (k, v) in convolve(&seg, &h).into_iter().enumerate() {
                         if let Some(d) = o.get_mut(k + lead) {
                             *d += v;
@@ -253,20 +312,35 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
         }
         (Some(room), Motion::Rotate { .. }) => {
             // A moving source in a room: render short overlapping segments (50 ms, Hann cross-fade)
-            // each with the response rotated to the segment's centre azimuth.
+            // each with the response turned to the segment's centre azimuth (a shoebox's computed
+            // at the nearest place of a 5° grid).
             let hop = (0.025 * rate) as usize;
             let win = 2 * hop;
             let mut start = 0usize;
+            let mut grid: std::collections::HashMap<i64, RoomResponse> =
+                std::collections::HashMap::new();
+            let rotated = match room {
+                TalkerRoom::Rotated(r) => Some(r),
+                TalkerRoom::ShoeBox(_) => None,
+            };
             while start < spec.source.len() {
                 let centre_t = (start + lead + hop) as f64 / rate;
                 let az = spec.motion.azimuth_at(centre_t);
+                let response = match rotated {
+                    Some(r) => r,
+                    None => {
+                        let cell = (wrap180(az) / MOVING_GRID_DEG).round() as i64;
+                        grid.entry(cell)
+                            .or_insert_with(|| room.response(cell as f64 * MOVING_GRID_DEG))
+                    }
+                };
                 let seg: Vec<f64> = (0..win)
                     .map(|i| {
                         let w = 0.5 - 0.5 * (2.0 * PI * i as f64 / win as f64).cos();
                         spec.source.get(start + i).copied().unwrap_or(0.0) * w
                     })
                     .collect();
-                for (o, h) in out.iter_mut().zip(room.rotated(az)) {
+                for (o, h) in out.iter_mut().zip(response.rotated(az)) {
                     for (k, v) in convolve(&seg, &h).into_iter().enumerate() {
                         if let Some(d) = o.get_mut(start + k + lead) {
                             *d += v;
@@ -492,7 +566,7 @@ pub fn proximity_filter(x: &[f64], rate: u32, distance_m: f64) -> Vec<f64> {
 pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> SceneParts {
     let rate = spec.rate as f64;
     let lead = (spec.lead_in_s * rate).round() as usize;
-    let tail = spec.room.as_ref().map_or(0, |r| r.w.len());
+    let tail = spec.room.as_ref().map_or(0, TalkerRoom::len);
     let total = lead + spec.source.len() + tail.min((0.3 * rate) as usize);
     let [w, mut x, mut y] = render_talker(spec, total, lead);
     if let Some(r) = near_field_m.filter(|r| *r > 0.0 && r.is_finite()) {
