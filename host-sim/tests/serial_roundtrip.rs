@@ -477,7 +477,7 @@ fn emit_to_monitor_carries_track_lines() {
     let tracks: Vec<_> = sent
         .iter()
         .filter_map(|l| match l {
-            Line::Tracks(t) => Some(*t),
+            Line::Tracks(t) => Some(t.clone()),
             _ => None,
         })
         .collect();

@@ -833,8 +833,7 @@ enum AssemblerState {
 /// `$` or `\n`. `N` = [`MAX_LINE`] holds every valid line.
 #[derive(Debug, Clone)]
 pub struct LineAssembler<const N: usize> {
-    buf: [u8; N],
-    len: usize,
+    buf: heapless::Vec<u8, N>,
     state: AssemblerState,
     stats: AssemblerStats,
 }
@@ -851,8 +850,7 @@ impl<const N: usize> LineAssembler<N> {
     pub const fn new() -> Self {
         const { assert!(N > 0, "LineAssembler needs room for at least one byte") };
         LineAssembler {
-            buf: [0; N],
-            len: 0,
+            buf: heapless::Vec::new(),
             state: AssemblerState::Hunting,
             stats: AssemblerStats {
                 lines: 0,
@@ -870,15 +868,16 @@ impl<const N: usize> LineAssembler<N> {
                 if state == AssemblerState::InLine {
                     self.stats.interrupted = self.stats.interrupted.wrapping_add(1);
                 }
-                self.len = 0;
-                self.store(byte);
+                self.buf.clear();
+                // Never full: `N` > 0 and the buffer was just emptied.
+                let _ = self.buf.push(byte);
                 self.state = AssemblerState::InLine;
                 None
             }
             (b'\n', AssemblerState::InLine) => {
                 self.state = AssemblerState::Hunting;
                 self.stats.lines = self.stats.lines.wrapping_add(1);
-                let line = self.buf.get(..self.len).unwrap_or(&[]);
+                let line = self.buf.as_slice();
                 Some(line.strip_suffix(b"\r").unwrap_or(line))
             }
             (b'\n', AssemblerState::Skipping) => {
@@ -886,7 +885,7 @@ impl<const N: usize> LineAssembler<N> {
                 None
             }
             (_, AssemblerState::InLine) => {
-                if !self.store(byte) {
+                if self.buf.push(byte).is_err() {
                     self.stats.overlong = self.stats.overlong.wrapping_add(1);
                     self.state = AssemblerState::Skipping;
                 }
@@ -915,7 +914,7 @@ impl<const N: usize> LineAssembler<N> {
         if self.state == AssemblerState::InLine {
             self.stats.interrupted = self.stats.interrupted.wrapping_add(1);
         }
-        self.len = 0;
+        self.buf.clear();
         self.state = AssemblerState::Hunting;
     }
 
@@ -923,7 +922,7 @@ impl<const N: usize> LineAssembler<N> {
     #[must_use]
     pub fn pending(&self) -> usize {
         if self.state == AssemblerState::InLine {
-            self.len
+            self.buf.len()
         } else {
             0
         }
@@ -933,17 +932,6 @@ impl<const N: usize> LineAssembler<N> {
     #[must_use]
     pub fn stats(&self) -> AssemblerStats {
         self.stats
-    }
-
-    fn store(&mut self, byte: u8) -> bool {
-        match self.buf.get_mut(self.len) {
-            Some(slot) => {
-                *slot = byte;
-                self.len += 1;
-                true
-            }
-            None => false,
-        }
     }
 }
 

@@ -347,7 +347,12 @@ pub fn calibration_summary(c: &CalibrationLine) -> String {
 /// The plain text of a track line: `tracks seq=… t=… n=…` and `id<ID>=<azimuth>@<confidence>` per
 /// active talker.
 pub fn tracks_plain_line(t: &TracksLine) -> String {
-    let mut s = format!("tracks seq={} t={} n={}", t.seq, t.centre_sample, t.len);
+    let mut s = format!(
+        "tracks seq={} t={} n={}",
+        t.seq,
+        t.centre_sample,
+        t.tracks.len()
+    );
     for k in t.active() {
         s.push_str(&format!(
             " id{}={:.1}@{:.3}",
@@ -850,7 +855,7 @@ pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     }
     if let Some(t) = v.tracks {
         let mut s = String::from("talkers    ");
-        if t.len == 0 {
+        if t.tracks.is_empty() {
             s.push_str(" none speaking");
         }
         for k in t.active() {
@@ -957,7 +962,7 @@ mod tests {
         stream.extend_from_slice(&calibration_bytes(&calibration(true)));
         stream.extend_from_slice(&line(2));
         let mut got = Vec::new();
-        d.feed_lines(&stream, |l| got.push(*l));
+        d.feed_lines(&stream, |l| got.push(l.clone()));
         assert_eq!(got.len(), 4);
         assert_eq!(got[0], Line::Calibration(calibration(false)));
         assert!(matches!(got[1], Line::Frame(Frame { seq: 1, .. })));
@@ -1270,7 +1275,7 @@ mod tests {
         stream.extend_from_slice(&line(1));
         let mut d = Decoder::new();
         let mut got = Vec::new();
-        d.feed_lines(&stream, |x| got.push(*x));
+        d.feed_lines(&stream, |x| got.push(x.clone()));
         assert_eq!(got[0], Line::Background(l));
         let c = d.counters();
         assert_eq!((c.frames, c.background_lines, c.corrupt_lines), (1, 1, 0));

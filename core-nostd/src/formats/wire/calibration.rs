@@ -317,7 +317,7 @@ pub fn decode_calibration(line: &[u8]) -> Result<CalibrationLine, DecodeError> {
 }
 
 /// A decoded line of either kind ([`decode_line`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Line {
     /// A `$CMA` frame line.
     Frame(Frame),
