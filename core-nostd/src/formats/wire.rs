@@ -260,19 +260,23 @@ pub const fn crc16(bytes: &[u8]) -> u16 {
     crc
 }
 
-/// Writes into a fixed buffer; a write past the end is dropped instead of panicking (cannot happen
-/// for lines of at most [`MAX_LINE`] bytes, which the tests check).
+/// Writes a line into a [`heapless::Vec`] (seen as a [`heapless::VecView`], so one copy of the code
+/// serves every capacity); a byte past its capacity is dropped instead of panicking (cannot happen:
+/// each encoder checks at compile time that its buffer holds its longest line, and the tests check
+/// the longest lines).
 struct Writer<'a> {
-    buf: &'a mut [u8],
-    len: usize,
+    line: &'a mut heapless::VecView<u8>,
 }
 
-impl Writer<'_> {
+impl<'a> Writer<'a> {
+    /// A writer of a new line in `line` (emptied first).
+    fn new(line: &'a mut heapless::VecView<u8>) -> Self {
+        line.clear();
+        Self { line }
+    }
+
     fn byte(&mut self, b: u8) {
-        if let Some(slot) = self.buf.get_mut(self.len) {
-            *slot = b;
-            self.len += 1;
-        }
+        let _ = self.line.push(b);
     }
 
     fn bytes(&mut self, bs: &[u8]) {
@@ -319,14 +323,12 @@ impl Writer<'_> {
         self.unsigned(u64::from(v.unsigned_abs()));
     }
 
-    /// Ends the line: `*`, the CRC of everything after the `$` at the start, `\r\n`. Returns the
-    /// line's length.
-    fn finish(mut self) -> usize {
-        let crc = crc16(self.buf.get(1..self.len).unwrap_or(&[]));
+    /// Ends the line: `*`, the CRC of everything after the `$` at the start, `\r\n`.
+    fn finish(mut self) {
+        let crc = crc16(self.line.get(1..).unwrap_or(&[]));
         self.byte(b'*');
         self.hex(crc, 4);
         self.bytes(b"\r\n");
-        self.len
     }
 
     fn hex(&mut self, v: u16, digits: u32) {
@@ -339,14 +341,13 @@ impl Writer<'_> {
     }
 }
 
-/// Writes `frame` as one line (with `\r\n`) into `out` and returns its length. Out-of-range fields
-/// are normalised first ([`Frame::normalized`]), so every line written decodes.
-pub fn encode(frame: &Frame, out: &mut [u8; MAX_LINE]) -> usize {
+/// Writes `frame` as one line (with `\r\n`) into `out`, which it empties first; `out` holds at
+/// least [`MAX_LINE`] bytes (checked at compile time). Out-of-range fields are normalised first
+/// ([`Frame::normalized`]), so every line written decodes.
+pub fn encode<const N: usize>(frame: &Frame, out: &mut heapless::Vec<u8, N>) {
+    const { assert!(N >= MAX_LINE, "the buffer must hold the longest line") };
     let f = frame.normalized();
-    let mut w = Writer {
-        buf: out.as_mut_slice(),
-        len: 0,
-    };
+    let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(b"CMA,");
     w.unsigned(u64::from(VERSION));
@@ -368,7 +369,7 @@ pub fn encode(frame: &Frame, out: &mut [u8; MAX_LINE]) -> usize {
     w.unsigned(u64::from(f.overruns));
     w.byte(b',');
     w.unsigned(u64::from(f.dropped));
-    w.finish()
+    w.finish();
 }
 
 /// A field of the line, for error messages.
@@ -942,9 +943,9 @@ mod tests {
     use std::vec::Vec;
 
     fn line(f: &Frame) -> Vec<u8> {
-        let mut buf = [0u8; MAX_LINE];
-        let n = encode(f, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+        encode(f, &mut buf);
+        buf[..].to_vec()
     }
 
     /// A line with a correct checksum around an arbitrary payload (for error tests).

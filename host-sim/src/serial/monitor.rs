@@ -929,9 +929,9 @@ mod tests {
             confidence_permille: 900,
             ..Frame::default()
         };
-        let mut buf = [0u8; MAX_LINE];
-        let n = wire::encode(&f, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+        wire::encode(&f, &mut buf);
+        buf[..].to_vec()
     }
 
     /// A calibration line: band 1 of cardioid 0 is 1 dB hot with β 0.45, the rest ideal.
@@ -949,9 +949,9 @@ mod tests {
     }
 
     fn calibration_bytes(c: &CalibrationLine) -> Vec<u8> {
-        let mut buf = [0u8; wire::MAX_CAL_LINE];
-        let n = wire::encode_calibration(c, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, { wire::MAX_CAL_LINE }>::new();
+        wire::encode_calibration(c, &mut buf);
+        buf[..].to_vec()
     }
 
     #[test]
@@ -1269,9 +1269,9 @@ mod tests {
         let middle = &both[ROSE_R as usize];
         assert!(middle.contains('L') && middle.contains('H'), "{middle}");
         // Decoded and counted, not as frames.
-        let mut buf = [0u8; wire::MAX_BGF_LINE];
-        let n = wire::encode_background(&l, &mut buf);
-        let mut stream = buf[..n].to_vec();
+        let mut buf = heapless::Vec::<u8, { wire::MAX_BGF_LINE }>::new();
+        wire::encode_background(&l, &mut buf);
+        let mut stream = buf[..].to_vec();
         stream.extend_from_slice(&line(1));
         let mut d = Decoder::new();
         let mut got = Vec::new();

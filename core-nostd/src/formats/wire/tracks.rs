@@ -125,14 +125,13 @@ impl TracksLine {
     }
 }
 
-/// Writes `line` as one track line (with `\r\n`) into `out` and returns its length. Fields out of
+/// Writes `line` as one track line (with `\r\n`) into `out`, which it empties first
+/// (`out` holds at least [`MAX_TRK_LINE`] bytes: checked at compile time). Fields out of
 /// range are clamped (azimuth and confidence to their ranges, ID 0 to 1),
 /// so every line written decodes unless two tracks share an ID.
-pub fn encode_tracks(line: &TracksLine, out: &mut [u8; MAX_TRK_LINE]) -> usize {
-    let mut w = Writer {
-        buf: out.as_mut_slice(),
-        len: 0,
-    };
+pub fn encode_tracks<const N: usize>(line: &TracksLine, out: &mut heapless::Vec<u8, N>) {
+    const { assert!(N >= MAX_TRK_LINE, "the buffer must hold the longest line") };
+    let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(TRACKS_TAG);
     w.unsigned(u64::from(TRACKS_VERSION));
@@ -154,7 +153,7 @@ pub fn encode_tracks(line: &TracksLine, out: &mut [u8; MAX_TRK_LINE]) -> usize {
             t.confidence_permille.min(CONFIDENCE_MAX_PERMILLE),
         ));
     }
-    w.finish()
+    w.finish();
 }
 
 /// Checks and parses one track line, with or without its `\r\n`.
@@ -269,9 +268,9 @@ mod tests {
     }
 
     fn encoded(l: &TracksLine) -> Vec<u8> {
-        let mut buf = [0u8; MAX_TRK_LINE];
-        let n = encode_tracks(l, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_TRK_LINE>::new();
+        encode_tracks(l, &mut buf);
+        buf[..].to_vec()
     }
 
     #[test]
