@@ -158,34 +158,9 @@ impl PeakPicker {
         if lo > hi {
             return;
         }
-        #[cfg(not(target_arch = "x86_64"))]
         for k in lo..=hi {
             if power[k] >= self.min_power && power[k] > 0.0 && Self::is_peak(power, k) {
                 out.insert(n, k, power[k]);
-            }
-        }
-        // x86_64: the same test without a branch per bin, into a bit mask per 64 bins, then the
-        // peaks inserted in ascending bin order as above (the same list).
-        #[cfg(target_arch = "x86_64")]
-        {
-            let mut k0 = lo;
-            while k0 <= hi {
-                let end = (k0 + 64).min(hi + 1);
-                let (mut mask, start) = sse::maxima_mask(power, k0, end, self.min_power);
-                for k in start..end {
-                    let p = power[k];
-                    let c = (p >= self.min_power)
-                        & (p > 0.0)
-                        & (p > power[k - 1])
-                        & (p >= power[k + 1]);
-                    mask |= u64::from(c) << (k - k0);
-                }
-                while mask != 0 {
-                    let k = k0 + mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    out.insert(n, k, power[k]);
-                }
-                k0 = end;
             }
         }
         out.n_maxima = out.len();
@@ -205,49 +180,6 @@ impl PeakPicker {
                 out.power[i] = p;
             }
         }
-    }
-}
-
-/// Four bins at a time of the x86_64 maxima scan in [`PeakPicker::process`].
-#[cfg(target_arch = "x86_64")]
-mod sse {
-    use core::arch::x86_64::{
-        _mm_and_ps, _mm_cmpge_ps, _mm_cmpgt_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_set1_ps,
-        _mm_setzero_ps,
-    };
-
-    /// Bit k − `k0` set for the bins k of `k0..start` with p ≥ `min_power`, p > 0, p > power[k − 1]
-    /// and p ≥ power[k + 1] (p = power[k]; the same IEEE compares as the scalar test, so false with a
-    /// NaN); `start` is the first bin not done (whole groups of four only). Needs 1 ≤ `k0`, `end` ≤
-    /// `k0` + 64 and `end` < `power.len()`.
-    #[allow(unsafe_code)]
-    #[inline(always)]
-    pub(super) fn maxima_mask(
-        power: &[f32],
-        k0: usize,
-        end: usize,
-        min_power: f32,
-    ) -> (u64, usize) {
-        let mut mask = 0u64;
-        let mut k = k0;
-        // SAFETY: SSE2 is enabled on every x86_64 target, so the intrinsics exist; they work on
-        // registers, except `_mm_loadu_ps`, which reads four f32 through the pointer of a
-        // bounds-checked slice of four elements (unaligned loads need no alignment).
-        unsafe {
-            let floor = _mm_set1_ps(min_power);
-            let zero = _mm_setzero_ps();
-            while k + 4 <= end {
-                let ld = |i: usize| _mm_loadu_ps(power[i..i + 4].as_ptr());
-                let (prev, p, next) = (ld(k - 1), ld(k), ld(k + 1));
-                let c = _mm_and_ps(
-                    _mm_and_ps(_mm_cmpge_ps(p, floor), _mm_cmpgt_ps(p, zero)),
-                    _mm_and_ps(_mm_cmpgt_ps(p, prev), _mm_cmpge_ps(p, next)),
-                );
-                mask |= u64::from(_mm_movemask_ps(c) as u32) << (k - k0);
-                k += 4;
-            }
-        }
-        (mask, k)
     }
 }
 
@@ -338,8 +270,8 @@ mod tests {
         assert!(out.is_empty());
     }
 
-    /// The maxima scan (branch-free bit masks on x86_64) picks exactly what the plain per-bin scan
-    /// picks, on random spectra with plateaus, zeros, NaN and ∞, thresholds and bands over 64 bins.
+    /// The maxima come first, exactly as the plain per-bin scan picks them (the fill bins after
+    /// them), on random spectra with plateaus, zeros, NaN and ∞, thresholds and bands over 64 bins.
     #[test]
     fn maxima_scan_equals_plain_scan() {
         let mut rng = crate::test_rng::Lcg(11);
