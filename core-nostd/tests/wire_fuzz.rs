@@ -46,9 +46,9 @@ fn any_frame() -> impl Strategy<Value = Frame> {
 }
 
 fn encoded(f: &Frame) -> Vec<u8> {
-    let mut buf = [0u8; MAX_LINE];
-    let n = encode(f, &mut buf);
-    buf[..n].to_vec()
+    let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+    encode(f, &mut buf);
+    buf[..].to_vec()
 }
 
 /// A corrupted line may be rejected, or accepted only as the very same frame (e.g. a damaged
@@ -186,9 +186,9 @@ fn any_calibration() -> impl Strategy<Value = CalibrationLine> {
 }
 
 fn encoded_calibration(c: &CalibrationLine) -> Vec<u8> {
-    let mut buf = [0u8; MAX_CAL_LINE];
-    let n = encode_calibration(c, &mut buf);
-    buf[..n].to_vec()
+    let mut buf = heapless::Vec::<u8, MAX_CAL_LINE>::new();
+    encode_calibration(c, &mut buf);
+    buf[..].to_vec()
 }
 
 /// A corrupted calibration line may be rejected, or accepted only as the very same line, never as

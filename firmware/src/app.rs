@@ -353,19 +353,12 @@ fn save_estimate(
     }
 }
 
-// The UART task's one line buffer holds a line of any kind.
-const _: () = assert!(
-    wire::MAX_ANY_LINE >= wire::MAX_LINE
-        && wire::MAX_ANY_LINE >= wire::MAX_CAL_LINE
-        && wire::MAX_ANY_LINE >= wire::MAX_TRK_LINE
-        && wire::MAX_ANY_LINE >= wire::MAX_BGF_LINE
-);
-
 /// Encodes queued estimates as frame lines and self-calibration snapshots as calibration lines, and
 /// writes them to the UART.
 #[embassy_executor::task]
 async fn uart_task(mut uart: FrameTx) {
-    let mut line = [0u8; wire::MAX_ANY_LINE];
+    // One line buffer for every kind (each encoder checks at compile time that its longest line fits).
+    let mut line = heapless::Vec::<u8, { wire::MAX_ANY_LINE }>::new();
     // `seq` counts frame lines sent (docs/wire-format.md): frames dropped by backpressure show in
     // `drop`. Calibration lines have their own `seq`.
     let mut seq: u32 = 0;
@@ -373,7 +366,7 @@ async fn uart_task(mut uart: FrameTx) {
     let mut tracks_seq: u32 = 0;
     let mut background_seq: u32 = 0;
     loop {
-        let n = match OUTGOING.receive().await {
+        match OUTGOING.receive().await {
             Outgoing::Estimate(e) => {
                 let frame = wire::Frame::from_estimate(
                     &e,
@@ -383,10 +376,7 @@ async fn uart_task(mut uart: FrameTx) {
                     COUNTERS.dropped(),
                 );
                 seq = seq.wrapping_add(1);
-                match line.first_chunk_mut::<{ wire::MAX_LINE }>() {
-                    Some(buf) => wire::encode(&frame, buf),
-                    None => 0, // cannot happen: see the assertion above
-                }
+                wire::encode(&frame, &mut line);
             }
             Outgoing::Calibration {
                 capsules,
@@ -401,29 +391,20 @@ async fn uart_task(mut uart: FrameTx) {
                     COUNTERS.calibration_dropped(),
                 );
                 calibration_seq = calibration_seq.wrapping_add(1);
-                match line.first_chunk_mut::<{ wire::MAX_CAL_LINE }>() {
-                    Some(buf) => wire::encode_calibration(&cal, buf),
-                    None => 0, // cannot happen: see the assertion above
-                }
+                wire::encode_calibration(&cal, &mut line);
             }
             Outgoing::Tracks(mut tracks) => {
                 tracks.seq = tracks_seq;
                 tracks_seq = tracks_seq.wrapping_add(1);
-                match line.first_chunk_mut::<{ wire::MAX_TRK_LINE }>() {
-                    Some(buf) => wire::encode_tracks(&tracks, buf),
-                    None => 0, // cannot happen: see the assertion above
-                }
+                wire::encode_tracks(&tracks, &mut line);
             }
             Outgoing::Background(mut background) => {
                 background.seq = background_seq;
                 background_seq = background_seq.wrapping_add(1);
-                match line.first_chunk_mut::<{ wire::MAX_BGF_LINE }>() {
-                    Some(buf) => wire::encode_background(&background, buf),
-                    None => 0, // cannot happen: see the assertion above
-                }
+                wire::encode_background(&background, &mut line);
             }
         };
-        if let Err(err) = uart.write(&line[..n]).await {
+        if let Err(err) = uart.write(&line).await {
             defmt::warn!("UART write failed: {}", err);
         }
     }

@@ -14,24 +14,24 @@ use libfuzzer_sys::fuzz_target;
 fn reencoded(line: &Line) -> Vec<u8> {
     match line {
         Line::Frame(f) => {
-            let mut buf = [0u8; MAX_LINE];
-            let n = encode(f, &mut buf);
-            buf[..n - 2].to_vec()
+            let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+            encode(f, &mut buf);
+            buf[..buf.len() - 2].to_vec()
         }
         Line::Calibration(c) => {
-            let mut buf = [0u8; MAX_CAL_LINE];
-            let n = encode_calibration(c, &mut buf);
-            buf[..n - 2].to_vec()
+            let mut buf = heapless::Vec::<u8, MAX_CAL_LINE>::new();
+            encode_calibration(c, &mut buf);
+            buf[..buf.len() - 2].to_vec()
         }
         Line::Tracks(t) => {
-            let mut buf = [0u8; MAX_TRK_LINE];
-            let n = encode_tracks(t, &mut buf);
-            buf[..n - 2].to_vec()
+            let mut buf = heapless::Vec::<u8, MAX_TRK_LINE>::new();
+            encode_tracks(t, &mut buf);
+            buf[..buf.len() - 2].to_vec()
         }
         Line::Background(b) => {
-            let mut buf = [0u8; MAX_BGF_LINE];
-            let n = encode_background(b, &mut buf);
-            buf[..n - 2].to_vec()
+            let mut buf = heapless::Vec::<u8, MAX_BGF_LINE>::new();
+            encode_background(b, &mut buf);
+            buf[..buf.len() - 2].to_vec()
         }
     }
 }

@@ -477,7 +477,7 @@ fn emit_to_monitor_carries_track_lines() {
     let tracks: Vec<_> = sent
         .iter()
         .filter_map(|l| match l {
-            Line::Tracks(t) => Some(*t),
+            Line::Tracks(t) => Some(t.clone()),
             _ => None,
         })
         .collect();
@@ -564,10 +564,10 @@ fn corrupted_stream_counters_are_exact() {
     let mut intact = Vec::new();
     let (mut replaced, mut dropped) = (0u64, 0u64);
     for f in &frames {
-        let mut buf = [0u8; MAX_LINE];
-        let n = wire::encode(f, &mut buf);
+        let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+        wire::encode(f, &mut buf);
         let mut damaged = false;
-        for &b in &buf[..n] {
+        for &b in &buf[..] {
             if rng.below(100) == 0 {
                 damaged = true;
                 if rng.below(2) == 0 {

@@ -191,8 +191,8 @@ impl Bench {
             weight: 0.0,
         }; MAX_PEAKS];
         let mut n_used = 0;
-        for i in 0..self.peaks.len {
-            let k = self.peaks.bins[i] as usize;
+        for &k in self.peaks.bins() {
+            let k = k as usize;
             let [_, f1, f2, f3] = black_box(&self.spectra);
             let xc = dft_bins3([f1, f2, f3], k);
             let Some(y) = self
@@ -241,6 +241,6 @@ impl Bench {
     /// Number of peaks the fixed frame yields (for the report).
     #[must_use]
     pub fn num_peaks(&self) -> usize {
-        self.peaks.len
+        self.peaks.len()
     }
 }

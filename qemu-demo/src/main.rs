@@ -81,7 +81,7 @@ fn main() -> ! {
     let mut block = [[0.0f32; CHANNELS]; BLOCK];
     let mut n: u64 = 0;
     let mut seq: u32 = 0;
-    let mut line = [0u8; MAX_LINE];
+    let mut line = heapless::Vec::<u8, MAX_LINE>::new();
     loop {
         for x in block.iter_mut() {
             let t = n as f32 / RATE_HZ as f32;
@@ -100,8 +100,8 @@ fn main() -> ! {
         }
         locator.process_block(&block, |e| {
             let f = Frame::from_estimate(e, seq, RATE_HZ, 0, 0);
-            let len = wire::encode(&f, &mut line);
-            uart::write(&line[..len]);
+            wire::encode(&f, &mut line);
+            uart::write(&line);
             seq = seq.wrapping_add(1);
         });
     }

@@ -20,14 +20,13 @@ pub struct PeakPicker {
 }
 
 /// The picked bins, strongest first.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Peaks {
-    /// Bin indices.
-    pub bins: [u16; MAX_PEAKS],
-    /// Power of the picking channel at each bin.
-    pub power: [f32; MAX_PEAKS],
-    /// Number of valid entries.
-    pub len: usize,
+    /// Bin indices (their number is the number of peaks).
+    bins: heapless::Vec<u16, MAX_PEAKS>,
+    /// Power of the picking channel at each bin: entry i belongs to `bins[i]`; the entries past
+    /// `bins.len()` are not used.
+    power: [f32; MAX_PEAKS],
     /// How many of them are true local maxima (the rest are fill bins).
     pub n_maxima: usize,
 }
@@ -37,9 +36,8 @@ impl Peaks {
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            bins: [0; MAX_PEAKS],
+            bins: heapless::Vec::new(),
             power: [0.0; MAX_PEAKS],
-            len: 0,
             n_maxima: 0,
         }
     }
@@ -47,38 +45,55 @@ impl Peaks {
 
 impl Default for Peaks {
     fn default() -> Self {
-        Self {
-            bins: [0; MAX_PEAKS],
-            power: [0.0; MAX_PEAKS],
-            len: 0,
-            n_maxima: 0,
-        }
+        Self::new()
     }
 }
 
 impl Peaks {
-    /// Inserts `(bin, p)` keeping the list sorted by descending power and at most `cap` long.
+    /// Inserts `(bin, p)` keeping the list sorted by descending power and at most `cap` long
+    /// (`cap` ≤ [`MAX_PEAKS`]).
     fn insert(&mut self, cap: usize, bin: usize, p: f32) {
-        if self.len == cap && p <= self.power[cap - 1] {
+        let len = self.bins.len();
+        if len >= cap {
+            if len == 0 || p <= self.power[len - 1] {
+                return;
+            }
+        } else if self.bins.push(0).is_err() {
             return;
         }
-        let mut i = if self.len < cap { self.len } else { cap - 1 };
+        let bins = self.bins.as_mut_slice();
+        let mut i = bins.len() - 1;
         while i > 0 && self.power[i - 1] < p {
             self.power[i] = self.power[i - 1];
-            self.bins[i] = self.bins[i - 1];
+            bins[i] = bins[i - 1];
             i -= 1;
         }
         self.power[i] = p;
-        self.bins[i] = bin as u16;
-        if self.len < cap {
-            self.len += 1;
-        }
+        bins[i] = bin as u16;
     }
 
-    /// The valid bin indices.
+    /// The bin indices, strongest first.
     #[must_use]
     pub fn bins(&self) -> &[u16] {
-        &self.bins[..self.len]
+        &self.bins
+    }
+
+    /// The picking channel's power at each of [`Peaks::bins`].
+    #[must_use]
+    pub fn power(&self) -> &[f32] {
+        &self.power[..self.bins.len()]
+    }
+
+    /// Number of peaks.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.bins.len()
+    }
+
+    /// No peaks picked.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.bins.is_empty()
     }
 }
 
@@ -143,94 +158,28 @@ impl PeakPicker {
         if lo > hi {
             return;
         }
-        #[cfg(not(target_arch = "x86_64"))]
         for k in lo..=hi {
             if power[k] >= self.min_power && power[k] > 0.0 && Self::is_peak(power, k) {
                 out.insert(n, k, power[k]);
             }
         }
-        // x86_64: the same test without a branch per bin, into a bit mask per 64 bins, then the
-        // peaks inserted in ascending bin order as above (the same list).
-        #[cfg(target_arch = "x86_64")]
-        {
-            let mut k0 = lo;
-            while k0 <= hi {
-                let end = (k0 + 64).min(hi + 1);
-                let (mut mask, start) = sse::maxima_mask(power, k0, end, self.min_power);
-                for k in start..end {
-                    let p = power[k];
-                    let c = (p >= self.min_power)
-                        & (p > 0.0)
-                        & (p > power[k - 1])
-                        & (p >= power[k + 1]);
-                    mask |= u64::from(c) << (k - k0);
-                }
-                while mask != 0 {
-                    let k = k0 + mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    out.insert(n, k, power[k]);
-                }
-                k0 = end;
-            }
-        }
-        out.n_maxima = out.len;
-        if self.fill && out.len < n {
+        out.n_maxima = out.len();
+        if self.fill && out.len() < n {
             let mut fill = Peaks::default();
-            let need = n - out.len;
+            let need = n - out.len();
             for k in lo..=hi {
                 if power[k] >= self.min_power && power[k] > 0.0 && !Self::is_peak(power, k) {
                     fill.insert(need, k, power[k]);
                 }
             }
-            for i in 0..fill.len {
-                out.bins[out.len] = fill.bins[i];
-                out.power[out.len] = fill.power[i];
-                out.len += 1;
+            for (&bin, &p) in fill.bins().iter().zip(fill.power()) {
+                let i = out.len();
+                if out.bins.push(bin).is_err() {
+                    break;
+                }
+                out.power[i] = p;
             }
         }
-    }
-}
-
-/// Four bins at a time of the x86_64 maxima scan in [`PeakPicker::process`].
-#[cfg(target_arch = "x86_64")]
-mod sse {
-    use core::arch::x86_64::{
-        _mm_and_ps, _mm_cmpge_ps, _mm_cmpgt_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_set1_ps,
-        _mm_setzero_ps,
-    };
-
-    /// Bit k − `k0` set for the bins k of `k0..start` with p ≥ `min_power`, p > 0, p > power[k − 1]
-    /// and p ≥ power[k + 1] (p = power[k]; the same IEEE compares as the scalar test, so false with a
-    /// NaN); `start` is the first bin not done (whole groups of four only). Needs 1 ≤ `k0`, `end` ≤
-    /// `k0` + 64 and `end` < `power.len()`.
-    #[allow(unsafe_code)]
-    #[inline(always)]
-    pub(super) fn maxima_mask(
-        power: &[f32],
-        k0: usize,
-        end: usize,
-        min_power: f32,
-    ) -> (u64, usize) {
-        let mut mask = 0u64;
-        let mut k = k0;
-        // SAFETY: SSE2 is enabled on every x86_64 target, so the intrinsics exist; they work on
-        // registers, except `_mm_loadu_ps`, which reads four f32 through the pointer of a
-        // bounds-checked slice of four elements (unaligned loads need no alignment).
-        unsafe {
-            let floor = _mm_set1_ps(min_power);
-            let zero = _mm_setzero_ps();
-            while k + 4 <= end {
-                let ld = |i: usize| _mm_loadu_ps(power[i..i + 4].as_ptr());
-                let (prev, p, next) = (ld(k - 1), ld(k), ld(k + 1));
-                let c = _mm_and_ps(
-                    _mm_and_ps(_mm_cmpge_ps(p, floor), _mm_cmpgt_ps(p, zero)),
-                    _mm_and_ps(_mm_cmpgt_ps(p, prev), _mm_cmpge_ps(p, next)),
-                );
-                mask |= u64::from(_mm_movemask_ps(c) as u32) << (k - k0);
-                k += 4;
-            }
-        }
-        (mask, k)
     }
 }
 
@@ -318,11 +267,11 @@ mod tests {
         assert_eq!(out.bins(), &[5]);
         let zero = [0.0f32; 30];
         picker(4).process(&zero, &mut out);
-        assert_eq!(out.len, 0);
+        assert!(out.is_empty());
     }
 
-    /// The maxima scan (branch-free bit masks on x86_64) picks exactly what the plain per-bin scan
-    /// picks, on random spectra with plateaus, zeros, NaN and ∞, thresholds and bands over 64 bins.
+    /// The maxima come first, exactly as the plain per-bin scan picks them (the fill bins after
+    /// them), on random spectra with plateaus, zeros, NaN and ∞, thresholds and bands over 64 bins.
     #[test]
     fn maxima_scan_equals_plain_scan() {
         let mut rng = crate::test_rng::Lcg(11);
@@ -357,14 +306,11 @@ mod tests {
                     want.insert(n, k, p[k]);
                 }
             }
-            assert_eq!(got.n_maxima, want.len, "round {round}");
-            assert_eq!(got.bins[..want.len], want.bins[..want.len], "round {round}");
-            for i in 0..want.len {
-                assert_eq!(
-                    got.power[i].to_bits(),
-                    want.power[i].to_bits(),
-                    "round {round}"
-                );
+            let m = want.len();
+            assert_eq!(got.n_maxima, m, "round {round}");
+            assert_eq!(got.bins()[..m], *want.bins(), "round {round}");
+            for (g, w) in got.power()[..m].iter().zip(want.power()) {
+                assert_eq!(g.to_bits(), w.to_bits(), "round {round}");
             }
         }
     }

@@ -260,19 +260,23 @@ pub const fn crc16(bytes: &[u8]) -> u16 {
     crc
 }
 
-/// Writes into a fixed buffer; a write past the end is dropped instead of panicking (cannot happen
-/// for lines of at most [`MAX_LINE`] bytes, which the tests check).
+/// Writes a line into a [`heapless::Vec`] (seen as a [`heapless::VecView`], so one copy of the code
+/// serves every capacity); a byte past its capacity is dropped instead of panicking (cannot happen:
+/// each encoder checks at compile time that its buffer holds its longest line, and the tests check
+/// the longest lines).
 struct Writer<'a> {
-    buf: &'a mut [u8],
-    len: usize,
+    line: &'a mut heapless::VecView<u8>,
 }
 
-impl Writer<'_> {
+impl<'a> Writer<'a> {
+    /// A writer of a new line in `line` (emptied first).
+    fn new(line: &'a mut heapless::VecView<u8>) -> Self {
+        line.clear();
+        Self { line }
+    }
+
     fn byte(&mut self, b: u8) {
-        if let Some(slot) = self.buf.get_mut(self.len) {
-            *slot = b;
-            self.len += 1;
-        }
+        let _ = self.line.push(b);
     }
 
     fn bytes(&mut self, bs: &[u8]) {
@@ -319,14 +323,12 @@ impl Writer<'_> {
         self.unsigned(u64::from(v.unsigned_abs()));
     }
 
-    /// Ends the line: `*`, the CRC of everything after the `$` at the start, `\r\n`. Returns the
-    /// line's length.
-    fn finish(mut self) -> usize {
-        let crc = crc16(self.buf.get(1..self.len).unwrap_or(&[]));
+    /// Ends the line: `*`, the CRC of everything after the `$` at the start, `\r\n`.
+    fn finish(mut self) {
+        let crc = crc16(self.line.get(1..).unwrap_or(&[]));
         self.byte(b'*');
         self.hex(crc, 4);
         self.bytes(b"\r\n");
-        self.len
     }
 
     fn hex(&mut self, v: u16, digits: u32) {
@@ -339,14 +341,13 @@ impl Writer<'_> {
     }
 }
 
-/// Writes `frame` as one line (with `\r\n`) into `out` and returns its length. Out-of-range fields
-/// are normalised first ([`Frame::normalized`]), so every line written decodes.
-pub fn encode(frame: &Frame, out: &mut [u8; MAX_LINE]) -> usize {
+/// Writes `frame` as one line (with `\r\n`) into `out`, which it empties first; `out` holds at
+/// least [`MAX_LINE`] bytes (checked at compile time). Out-of-range fields are normalised first
+/// ([`Frame::normalized`]), so every line written decodes.
+pub fn encode<const N: usize>(frame: &Frame, out: &mut heapless::Vec<u8, N>) {
+    const { assert!(N >= MAX_LINE, "the buffer must hold the longest line") };
     let f = frame.normalized();
-    let mut w = Writer {
-        buf: out.as_mut_slice(),
-        len: 0,
-    };
+    let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(b"CMA,");
     w.unsigned(u64::from(VERSION));
@@ -368,7 +369,7 @@ pub fn encode(frame: &Frame, out: &mut [u8; MAX_LINE]) -> usize {
     w.unsigned(u64::from(f.overruns));
     w.byte(b',');
     w.unsigned(u64::from(f.dropped));
-    w.finish()
+    w.finish();
 }
 
 /// A field of the line, for error messages.
@@ -833,8 +834,7 @@ enum AssemblerState {
 /// `$` or `\n`. `N` = [`MAX_LINE`] holds every valid line.
 #[derive(Debug, Clone)]
 pub struct LineAssembler<const N: usize> {
-    buf: [u8; N],
-    len: usize,
+    buf: heapless::Vec<u8, N>,
     state: AssemblerState,
     stats: AssemblerStats,
 }
@@ -851,8 +851,7 @@ impl<const N: usize> LineAssembler<N> {
     pub const fn new() -> Self {
         const { assert!(N > 0, "LineAssembler needs room for at least one byte") };
         LineAssembler {
-            buf: [0; N],
-            len: 0,
+            buf: heapless::Vec::new(),
             state: AssemblerState::Hunting,
             stats: AssemblerStats {
                 lines: 0,
@@ -870,15 +869,16 @@ impl<const N: usize> LineAssembler<N> {
                 if state == AssemblerState::InLine {
                     self.stats.interrupted = self.stats.interrupted.wrapping_add(1);
                 }
-                self.len = 0;
-                self.store(byte);
+                self.buf.clear();
+                // Never full: `N` > 0 and the buffer was just emptied.
+                let _ = self.buf.push(byte);
                 self.state = AssemblerState::InLine;
                 None
             }
             (b'\n', AssemblerState::InLine) => {
                 self.state = AssemblerState::Hunting;
                 self.stats.lines = self.stats.lines.wrapping_add(1);
-                let line = self.buf.get(..self.len).unwrap_or(&[]);
+                let line = self.buf.as_slice();
                 Some(line.strip_suffix(b"\r").unwrap_or(line))
             }
             (b'\n', AssemblerState::Skipping) => {
@@ -886,7 +886,7 @@ impl<const N: usize> LineAssembler<N> {
                 None
             }
             (_, AssemblerState::InLine) => {
-                if !self.store(byte) {
+                if self.buf.push(byte).is_err() {
                     self.stats.overlong = self.stats.overlong.wrapping_add(1);
                     self.state = AssemblerState::Skipping;
                 }
@@ -915,7 +915,7 @@ impl<const N: usize> LineAssembler<N> {
         if self.state == AssemblerState::InLine {
             self.stats.interrupted = self.stats.interrupted.wrapping_add(1);
         }
-        self.len = 0;
+        self.buf.clear();
         self.state = AssemblerState::Hunting;
     }
 
@@ -923,7 +923,7 @@ impl<const N: usize> LineAssembler<N> {
     #[must_use]
     pub fn pending(&self) -> usize {
         if self.state == AssemblerState::InLine {
-            self.len
+            self.buf.len()
         } else {
             0
         }
@@ -934,17 +934,6 @@ impl<const N: usize> LineAssembler<N> {
     pub fn stats(&self) -> AssemblerStats {
         self.stats
     }
-
-    fn store(&mut self, byte: u8) -> bool {
-        match self.buf.get_mut(self.len) {
-            Some(slot) => {
-                *slot = byte;
-                self.len += 1;
-                true
-            }
-            None => false,
-        }
-    }
 }
 
 #[cfg(test)]
@@ -954,9 +943,9 @@ mod tests {
     use std::vec::Vec;
 
     fn line(f: &Frame) -> Vec<u8> {
-        let mut buf = [0u8; MAX_LINE];
-        let n = encode(f, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+        encode(f, &mut buf);
+        buf[..].to_vec()
     }
 
     /// A line with a correct checksum around an arbitrary payload (for error tests).

@@ -264,8 +264,8 @@ impl SimilarityFrame {
             crate::spectrum::dft_bins3_many(spectra.folds(), self.peaks.bins(), &mut xcs);
             xcs
         };
-        for i in 0..self.peaks.len {
-            let k = self.peaks.bins[i] as usize;
+        for i in 0..self.peaks.len() {
+            let k = usize::from(self.peaks.bins()[i]);
             let p0 = self.omni_power[k];
             #[cfg(target_arch = "x86_64")]
             let xc = xcs[i];

@@ -8,7 +8,7 @@ use crate::io::selfcal_file;
 use crate::io::serial_link::{self, DEFAULT_BAUD};
 use crate::io::wav_io::{self, InputLayout};
 use crate::serial::board_lines;
-use cma_core::wire::{self, Line, MAX_CAL_LINE, MAX_LINE, MAX_TRK_LINE};
+use cma_core::wire::{self, Line};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -62,10 +62,7 @@ pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
 pub fn run(a: &EmitArgs) -> Result<()> {
     let (rate, lines) = lines(a)?;
     let mut port = serial_link::open(&a.port, a.baud)?;
-    let mut frame_buf = [0u8; MAX_LINE];
-    let mut cal_buf = [0u8; MAX_CAL_LINE];
-    let mut tracks_buf = [0u8; MAX_TRK_LINE];
-    let mut background_buf = [0u8; wire::MAX_BGF_LINE];
+    let mut buf = heapless::Vec::<u8, { wire::MAX_ANY_LINE }>::new();
     let start = Instant::now();
     let (mut bytes, mut frames, mut calibrations) = (0usize, 0usize, 0usize);
     for line in &lines {
@@ -81,21 +78,21 @@ pub fn run(a: &EmitArgs) -> Result<()> {
                     }
                 }
                 frames += 1;
-                let n = wire::encode(f, &mut frame_buf);
-                &frame_buf[..n]
+                wire::encode(f, &mut buf);
+                &buf
             }
             Line::Calibration(c) => {
                 calibrations += 1;
-                let n = wire::encode_calibration(c, &mut cal_buf);
-                &cal_buf[..n]
+                wire::encode_calibration(c, &mut buf);
+                &buf
             }
             Line::Tracks(t) => {
-                let n = wire::encode_tracks(t, &mut tracks_buf);
-                &tracks_buf[..n]
+                wire::encode_tracks(t, &mut buf);
+                &buf
             }
             Line::Background(b) => {
-                let n = wire::encode_background(b, &mut background_buf);
-                &background_buf[..n]
+                wire::encode_background(b, &mut buf);
+                &buf
             }
         };
         serial_link::write_all(port.as_mut(), &a.port, bytes_of_line, WRITE_STALL)?;

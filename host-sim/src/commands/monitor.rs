@@ -137,7 +137,7 @@ pub fn run(a: &MonitorArgs) -> Result<()> {
                             (!live).then(|| calibration_plain_line(c))
                         }
                         Line::Tracks(t) => {
-                            last_tracks = Some(*t);
+                            last_tracks = Some(t.clone());
                             (!live).then(|| tracks_plain_line(t))
                         }
                         Line::Background(b) => {

@@ -347,7 +347,12 @@ pub fn calibration_summary(c: &CalibrationLine) -> String {
 /// The plain text of a track line: `tracks seq=… t=… n=…` and `id<ID>=<azimuth>@<confidence>` per
 /// active talker.
 pub fn tracks_plain_line(t: &TracksLine) -> String {
-    let mut s = format!("tracks seq={} t={} n={}", t.seq, t.centre_sample, t.len);
+    let mut s = format!(
+        "tracks seq={} t={} n={}",
+        t.seq,
+        t.centre_sample,
+        t.tracks.len()
+    );
     for k in t.active() {
         s.push_str(&format!(
             " id{}={:.1}@{:.3}",
@@ -850,7 +855,7 @@ pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     }
     if let Some(t) = v.tracks {
         let mut s = String::from("talkers    ");
-        if t.len == 0 {
+        if t.tracks.is_empty() {
             s.push_str(" none speaking");
         }
         for k in t.active() {
@@ -924,9 +929,9 @@ mod tests {
             confidence_permille: 900,
             ..Frame::default()
         };
-        let mut buf = [0u8; MAX_LINE];
-        let n = wire::encode(&f, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+        wire::encode(&f, &mut buf);
+        buf[..].to_vec()
     }
 
     /// A calibration line: band 1 of cardioid 0 is 1 dB hot with β 0.45, the rest ideal.
@@ -944,9 +949,9 @@ mod tests {
     }
 
     fn calibration_bytes(c: &CalibrationLine) -> Vec<u8> {
-        let mut buf = [0u8; wire::MAX_CAL_LINE];
-        let n = wire::encode_calibration(c, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, { wire::MAX_CAL_LINE }>::new();
+        wire::encode_calibration(c, &mut buf);
+        buf[..].to_vec()
     }
 
     #[test]
@@ -957,7 +962,7 @@ mod tests {
         stream.extend_from_slice(&calibration_bytes(&calibration(true)));
         stream.extend_from_slice(&line(2));
         let mut got = Vec::new();
-        d.feed_lines(&stream, |l| got.push(*l));
+        d.feed_lines(&stream, |l| got.push(l.clone()));
         assert_eq!(got.len(), 4);
         assert_eq!(got[0], Line::Calibration(calibration(false)));
         assert!(matches!(got[1], Line::Frame(Frame { seq: 1, .. })));
@@ -1264,13 +1269,13 @@ mod tests {
         let middle = &both[ROSE_R as usize];
         assert!(middle.contains('L') && middle.contains('H'), "{middle}");
         // Decoded and counted, not as frames.
-        let mut buf = [0u8; wire::MAX_BGF_LINE];
-        let n = wire::encode_background(&l, &mut buf);
-        let mut stream = buf[..n].to_vec();
+        let mut buf = heapless::Vec::<u8, { wire::MAX_BGF_LINE }>::new();
+        wire::encode_background(&l, &mut buf);
+        let mut stream = buf[..].to_vec();
         stream.extend_from_slice(&line(1));
         let mut d = Decoder::new();
         let mut got = Vec::new();
-        d.feed_lines(&stream, |x| got.push(*x));
+        d.feed_lines(&stream, |x| got.push(x.clone()));
         assert_eq!(got[0], Line::Background(l));
         let c = d.counters();
         assert_eq!((c.frames, c.background_lines, c.corrupt_lines), (1, 1, 0));

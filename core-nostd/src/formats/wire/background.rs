@@ -167,15 +167,14 @@ impl BackgroundLine {
     }
 }
 
-/// Writes `line` as one background line (with `\r\n`) into `out` and returns its length. Fields
+/// Writes `line` as one background line (with `\r\n`) into `out`, which it empties first
+/// (`out` holds at least [`MAX_BGF_LINE`] bytes: checked at compile time). Fields
 /// out of range are clamped and a band without evidence is written as `0,0,0,0`, so every line
 /// written decodes. Not inlined, like [`encode_calibration`](super::encode_calibration).
 #[inline(never)]
-pub fn encode_background(line: &BackgroundLine, out: &mut [u8; MAX_BGF_LINE]) -> usize {
-    let mut w = Writer {
-        buf: out.as_mut_slice(),
-        len: 0,
-    };
+pub fn encode_background<const N: usize>(line: &BackgroundLine, out: &mut heapless::Vec<u8, N>) {
+    const { assert!(N >= MAX_BGF_LINE, "the buffer must hold the longest line") };
+    let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(BACKGROUND_TAG);
     w.unsigned(u64::from(BACKGROUND_VERSION));
@@ -201,7 +200,7 @@ pub fn encode_background(line: &BackgroundLine, out: &mut [u8; MAX_BGF_LINE]) ->
             w.field(v);
         }
     }
-    w.finish()
+    w.finish();
 }
 
 /// Checks and parses one background line, with or without its `\r\n`.
@@ -313,9 +312,9 @@ mod tests {
     }
 
     fn encoded(l: &BackgroundLine) -> Vec<u8> {
-        let mut buf = [0u8; MAX_BGF_LINE];
-        let n = encode_background(l, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_BGF_LINE>::new();
+        encode_background(l, &mut buf);
+        buf[..].to_vec()
     }
 
     #[test]

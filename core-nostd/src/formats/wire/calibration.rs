@@ -204,19 +204,18 @@ impl CalibrationLine {
     }
 }
 
-/// Writes `line` as one calibration line (with `\r\n`) into `out` and returns its length.
+/// Writes `line` as one calibration line (with `\r\n`) into `out`, which it empties first
+/// (`out` holds at least [`MAX_CAL_LINE`] bytes: checked at compile time).
 /// Out-of-range fields are clamped first ([`CalibrationLine::normalized`]), so every line written
 /// decodes.
 ///
 /// Not inlined: sent every few seconds, so one small out-of-line copy (the firmware's flash) beats
 /// an unrolled one in the caller.
 #[inline(never)]
-pub fn encode_calibration(line: &CalibrationLine, out: &mut [u8; MAX_CAL_LINE]) -> usize {
+pub fn encode_calibration<const N: usize>(line: &CalibrationLine, out: &mut heapless::Vec<u8, N>) {
+    const { assert!(N >= MAX_CAL_LINE, "the buffer must hold the longest line") };
     let l = line.normalized();
-    let mut w = Writer {
-        buf: out.as_mut_slice(),
-        len: 0,
-    };
+    let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(CALIBRATION_TAG);
     w.unsigned(u64::from(CALIBRATION_VERSION));
@@ -238,7 +237,7 @@ pub fn encode_calibration(line: &CalibrationLine, out: &mut [u8; MAX_CAL_LINE]) 
             w.unsigned(u64::from(v));
         }
     }
-    w.finish()
+    w.finish();
 }
 
 /// Checks and parses one calibration line, with or without its `\r\n`.
@@ -317,7 +316,7 @@ pub fn decode_calibration(line: &[u8]) -> Result<CalibrationLine, DecodeError> {
 }
 
 /// A decoded line of either kind ([`decode_line`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Line {
     /// A `$CMA` frame line.
     Frame(Frame),
@@ -385,9 +384,9 @@ mod tests {
     use std::vec::Vec;
 
     fn line(l: &CalibrationLine) -> Vec<u8> {
-        let mut buf = [0u8; MAX_CAL_LINE];
-        let n = encode_calibration(l, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_CAL_LINE>::new();
+        encode_calibration(l, &mut buf);
+        buf[..].to_vec()
     }
 
     fn with_crc(payload: &str) -> Vec<u8> {
@@ -493,10 +492,10 @@ mod tests {
         assert_eq!(decode(&cal), Err(DecodeError::CalibrationLine));
         let msg = std::format!("{}", decode(&cal).unwrap_err());
         assert_eq!(msg, "not a frame line (a `$CAL` self-calibration line)");
-        let mut buf = [0u8; MAX_LINE];
-        let n = encode(&Frame::default(), &mut buf);
-        assert_eq!(decode_calibration(&buf[..n]), Err(DecodeError::FrameLine));
-        assert_eq!(decode_line(&buf[..n]), Ok(Line::Frame(Frame::default())));
+        let mut buf = heapless::Vec::<u8, MAX_LINE>::new();
+        encode(&Frame::default(), &mut buf);
+        assert_eq!(decode_calibration(&buf[..]), Err(DecodeError::FrameLine));
+        assert_eq!(decode_line(&buf[..]), Ok(Line::Frame(Frame::default())));
         assert_eq!(
             decode_calibration(&with_crc("GPGGA,1")),
             Err(DecodeError::BadPrefix)
@@ -626,10 +625,10 @@ mod tests {
 
     #[test]
     fn assembler_of_any_line_carries_both_kinds() {
-        let mut f = [0u8; MAX_LINE];
-        let n = encode(&Frame::default(), &mut f);
+        let mut f = heapless::Vec::<u8, MAX_LINE>::new();
+        encode(&Frame::default(), &mut f);
         let mut stream = line(&sample());
-        stream.extend_from_slice(&f[..n]);
+        stream.extend_from_slice(&f[..]);
         stream.extend_from_slice(&line(&sample()));
         let mut asm = LineAssembler::<MAX_ANY_LINE>::new();
         let mut got = Vec::new();

@@ -82,17 +82,15 @@ impl WireTrack {
 }
 
 /// The active tracks of one frame as they travel on the wire.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TracksLine {
     /// Track lines sent before this one (wrapping).
     pub seq: u32,
     /// `centre_sample` of the estimate (input samples).
     pub centre_sample: u64,
-    /// Number of tracks in `tracks`, `0..=`[`MAX_TRACKS`].
-    pub len: u8,
-    /// The active tracks, the first `len` used.
-    pub tracks: [WireTrack; MAX_TRACKS],
+    /// The active tracks, at most [`MAX_TRACKS`] (the count held in a `u8`, as on the wire).
+    pub tracks: heapless::Vec<WireTrack, MAX_TRACKS, u8>,
 }
 
 impl TracksLine {
@@ -108,15 +106,14 @@ impl TracksLine {
             ..TracksLine::default()
         };
         for t in tracks.into_iter().filter(|t| t.active && t.id != 0) {
-            let Some(slot) = line.tracks.get_mut(usize::from(line.len)) else {
-                break;
-            };
-            *slot = WireTrack {
+            let track = WireTrack {
                 id: t.id,
                 azimuth_tenths: azimuth_to_tenths(t.azimuth_deg),
                 confidence_permille: confidence_to_permille(t.confidence),
             };
-            line.len += 1;
+            if line.tracks.push(track).is_err() {
+                break;
+            }
         }
         line
     }
@@ -124,18 +121,17 @@ impl TracksLine {
     /// The tracks of the line.
     #[must_use]
     pub fn active(&self) -> &[WireTrack] {
-        &self.tracks[..usize::from(self.len).min(MAX_TRACKS)]
+        &self.tracks
     }
 }
 
-/// Writes `line` as one track line (with `\r\n`) into `out` and returns its length. Fields out of
-/// range are clamped (length to [`MAX_TRACKS`], azimuth and confidence to their ranges, ID 0 to 1),
+/// Writes `line` as one track line (with `\r\n`) into `out`, which it empties first
+/// (`out` holds at least [`MAX_TRK_LINE`] bytes: checked at compile time). Fields out of
+/// range are clamped (azimuth and confidence to their ranges, ID 0 to 1),
 /// so every line written decodes unless two tracks share an ID.
-pub fn encode_tracks(line: &TracksLine, out: &mut [u8; MAX_TRK_LINE]) -> usize {
-    let mut w = Writer {
-        buf: out.as_mut_slice(),
-        len: 0,
-    };
+pub fn encode_tracks<const N: usize>(line: &TracksLine, out: &mut heapless::Vec<u8, N>) {
+    const { assert!(N >= MAX_TRK_LINE, "the buffer must hold the longest line") };
+    let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(TRACKS_TAG);
     w.unsigned(u64::from(TRACKS_VERSION));
@@ -157,7 +153,7 @@ pub fn encode_tracks(line: &TracksLine, out: &mut [u8; MAX_TRK_LINE]) -> usize {
             t.confidence_permille.min(CONFIDENCE_MAX_PERMILLE),
         ));
     }
-    w.finish()
+    w.finish();
 }
 
 /// Checks and parses one track line, with or without its `\r\n`.
@@ -235,12 +231,12 @@ pub fn decode_tracks(line: &[u8]) -> Result<TracksLine, DecodeError> {
                 field: Field::TrackConfidence { track },
             });
         }
-        out.tracks[k] = WireTrack {
+        // Never full: `count` ≤ MAX_TRACKS was checked above.
+        let _ = out.tracks.push(WireTrack {
             id: id as u16,
             azimuth_tenths,
             confidence_permille: conf as u16,
-        };
-        out.len += 1;
+        });
     }
     Ok(out)
 }
@@ -259,21 +255,22 @@ mod tests {
             centre_sample: 123_456,
             ..TracksLine::default()
         };
-        for (slot, &(id, az, c)) in l.tracks.iter_mut().zip(tracks) {
-            *slot = WireTrack {
-                id,
-                azimuth_tenths: az,
-                confidence_permille: c,
-            };
-            l.len += 1;
+        for &(id, az, c) in tracks {
+            l.tracks
+                .push(WireTrack {
+                    id,
+                    azimuth_tenths: az,
+                    confidence_permille: c,
+                })
+                .unwrap();
         }
         l
     }
 
     fn encoded(l: &TracksLine) -> Vec<u8> {
-        let mut buf = [0u8; MAX_TRK_LINE];
-        let n = encode_tracks(l, &mut buf);
-        buf[..n].to_vec()
+        let mut buf = heapless::Vec::<u8, MAX_TRK_LINE>::new();
+        encode_tracks(l, &mut buf);
+        buf[..].to_vec()
     }
 
     #[test]
@@ -286,7 +283,7 @@ mod tests {
             "{text}"
         );
         assert!(text.ends_with("\r\n"));
-        assert_eq!(decode_tracks(&bytes), Ok(l));
+        assert_eq!(decode_tracks(&bytes), Ok(l.clone()));
         assert_eq!(decode_line(&bytes), Ok(Line::Tracks(l)));
         let empty = line_of(&[]);
         assert_eq!(decode_tracks(&encoded(&empty)), Ok(empty));
@@ -368,7 +365,7 @@ mod tests {
             0,
             0,
         );
-        assert_eq!(l.len, 2);
+        assert_eq!(l.tracks.len(), 2);
         assert_eq!(l.active()[1].id, 3);
         assert_eq!(l.active()[1].azimuth_tenths, 1800);
         assert_eq!(l.active()[0].confidence_permille, 500);
@@ -383,19 +380,18 @@ mod tests {
         ) {
             let mut l = TracksLine { seq, centre_sample: t, ..TracksLine::default() };
             for (k, &(id, az, c)) in tracks.iter().enumerate() {
-                l.tracks[k] = WireTrack {
+                l.tracks.push(WireTrack {
                     // Distinct and ≥ 1: the encoder does not invent IDs.
                     id: (id % 20_000) + 1 + 20_000 * k as u16,
                     azimuth_tenths: az,
                     confidence_permille: c,
-                };
-                l.len += 1;
+                }).unwrap();
             }
             let bytes = encoded(&l);
             prop_assert!(bytes.len() <= MAX_TRK_LINE);
             let d = decode_tracks(&bytes).unwrap();
             // What decodes is the clamped line.
-            prop_assert_eq!(d.len, l.len);
+            prop_assert_eq!(d.tracks.len(), l.tracks.len());
             for (a, b) in d.active().iter().zip(l.active()) {
                 prop_assert_eq!(a.id, b.id);
                 prop_assert_eq!(a.azimuth_tenths, b.azimuth_tenths.clamp(-1799, 1800));
