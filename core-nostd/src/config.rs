@@ -1,4 +1,6 @@
-//! Configuration of the localizer: plain values, fixed while the localizer runs.
+//! Configuration of the localizer: plain values, fixed while the localizer runs. The settings
+//! types are the stages' own (in their crates); [`LocatorConfig`] composes them, and its methods
+//! give each stage its part ([`LocatorConfig::similarity_settings`], …).
 
 use crate::background_field::BackgroundField;
 use crate::capsule_calibration::CapsuleCalibration;
@@ -10,15 +12,19 @@ use crate::error::Error;
 use crate::features::FeatureKind;
 use crate::frame_onset::FrameOnset;
 use crate::frame_quality::FrameQuality;
-use crate::grid_tracker::GridTracker;
+use crate::intensity::{IntensitySettings, IvMethod};
 use crate::multi_track::MultiTrack;
 use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::NoiseMixing;
+use crate::peak_picker::PeakSettings;
 use crate::reference_table::ReferenceTable;
-use crate::refine_curve::RefineCurve;
+use crate::refine_curve::{refine_distance_power, DistancePower};
 use crate::reliability::Reliability;
-use crate::similarity::SimilarityMeasure;
+use crate::similarity::{CurveSettings, SimilarityMeasure};
+use crate::similarity_frame::{FrameSettings, SimilaritySettings};
 use crate::MAX_PEAKS;
+
+pub use crate::curve_tracker::{Tracking, DEFAULT_GRID_TRACKER};
 
 /// Which localization principle runs (appendix A `se.principle`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,36 +38,6 @@ pub enum Method {
     /// Time-domain intensity vector (§5.2.1).
     Tdiv,
 }
-
-/// How the per-frame similarity curves become the reported azimuth.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
-pub enum Tracking {
-    /// The thesis: adaptive one-pole filter on the curve, S̃ = b·S + (1 − b)·S̃ (eq. 5.31).
-    OnePole,
-    /// Bayesian grid tracker with the curve as a b-tempered likelihood ([`GridTracker`]).
-    Grid(GridTracker),
-}
-
-/// The grid tracker's settings of the product configuration.
-pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
-    sharpness: 60.0,
-    diffusion_deg: 1.0,
-    jump_probability: 0.01,
-    velocity_pole: 0.98,
-    min_velocity_deg: 0.3,
-    velocity_gain: 0.0,
-    likelihood_floor: 0.2,
-    motion_diffusion: 2.0,
-    onset_jump_probability: 0.3,
-    pause_frames: 6,
-    onset_frames: 3,
-    onset_likelihood_floor: 0.05,
-    refine_gain: 0.1,
-    refine_limit: 1.0,
-    refine_curve: RefineCurve::Similarity,
-};
 
 /// The product's noise-floor gate ([`NoiseGate`]).
 pub const DEFAULT_NOISE_GATE: NoiseGate = NoiseGate {
@@ -287,7 +263,86 @@ impl LocatorConfig {
         if !c.quality.is_valid() {
             return invalid("quality: scales must be > 0 and finite");
         }
+        if !cfg!(feature = "thesis-options") && c.uses_thesis_options() {
+            return invalid(
+                "the thesis options and the baselines (method fdiv/tdiv, quality, combination, smoothing, fdiv_spread): cma-core was built without its `thesis-options` feature",
+            );
+        }
         Ok(())
+    }
+
+    /// `true` when the configuration selects a baseline method or a thesis option other than the
+    /// thesis's default (the stages of the `thesis-options` feature).
+    #[must_use]
+    pub fn uses_thesis_options(&self) -> bool {
+        self.method != Method::Similarity
+            || !self.quality.is_default()
+            || self.combination != Combination::MeanCurve
+            || self.smoothing != Smoothing::Curve
+            || self.fdiv_spread.enabled()
+    }
+
+    /// The peak picker's settings.
+    #[must_use]
+    pub fn peak_settings(&self) -> PeakSettings {
+        PeakSettings {
+            band_lo_hz: self.band_lo_hz,
+            band_hi_hz: self.band_hi_hz,
+            num_peaks: self.num_peaks,
+            peak_threshold: self.peak_threshold,
+            fill_peaks: self.fill_peaks,
+        }
+    }
+
+    /// The similarity curve's settings.
+    #[must_use]
+    pub fn curve_settings(&self) -> CurveSettings {
+        CurveSettings {
+            measure: self.measure,
+            noise_mixing: self.noise_mixing,
+            snr_from_db: self.snr_from_db,
+            snr_to_db: self.snr_to_db,
+            snr_step_db: self.snr_step_db,
+            mean_free: self.mean_free,
+            features: self.features,
+        }
+    }
+
+    /// The settings of the similarity method on one frame.
+    #[must_use]
+    pub fn similarity_settings(&self) -> SimilaritySettings {
+        SimilaritySettings {
+            peaks: self.peak_settings(),
+            curves: self.curve_settings(),
+            frame: FrameSettings {
+                kernel: self.kernel,
+                direct_sound: self.direct_sound,
+                reliability: self.reliability,
+                quality: self.quality,
+            },
+        }
+    }
+
+    /// The power of the distance curve of the grid tracker's refinement, if it has one
+    /// ([`refine_distance_power`]).
+    #[must_use]
+    pub fn refine_power(&self) -> Option<DistancePower> {
+        refine_distance_power(self.kernel, &self.tracking)
+    }
+
+    /// The intensity-vector stage's settings (FDIV for the similarity method, where it does not run).
+    #[must_use]
+    pub fn intensity_settings(&self) -> IntensitySettings {
+        IntensitySettings {
+            method: if self.method == Method::Tdiv {
+                IvMethod::Tdiv
+            } else {
+                IvMethod::Fdiv
+            },
+            tdiv_pole: self.tdiv_pole,
+            fdiv_pole: self.fdiv_pole,
+            fdiv_spread: self.fdiv_spread,
+        }
     }
 }
 
