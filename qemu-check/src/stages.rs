@@ -120,9 +120,10 @@ impl Bench {
             curve_sum: 0.0,
             filter: CurveFilter::new(),
             front: FrontEnd::new(dec, InputGuard::for_decimation(c.clip_level, dec.factor())),
-            picker: PeakPicker::from_config(&c, fs),
+            picker: PeakPicker::from_config(&c.peak_settings(), fs),
             row_cache: RowCache::new(),
-            curves: CurveBuilder::from_config(&c).expect("default SNR sets are valid"),
+            curves: CurveBuilder::from_config(&c.curve_settings())
+                .expect("default SNR sets are valid"),
             table: ReferenceTable::ideal_5deg(),
         });
         let mut scene = Scene::at_rate(FIRMWARE_RATE_HZ);

@@ -10,7 +10,7 @@
 //!   (s·Y + ½)/(s + 1), a linear mix — the magnitude mixing of the noisy references with Y_η = ½),
 //!   while the magnitude ratio is pulled toward √(⅓) along a curved path that the linear mix only
 //!   approximates. Real capsules move that point: a measured table carries the active ratio's own
-//!   noise row Re(E[X_c·X_0*])/E|X_0|² ([`crate::ReferenceTable::rows`]), which is ½ for the ideal
+//!   noise row Re(E[X_c·X_0*])/E|X_0|² (`ReferenceTable::rows` of `cma-localization`), which is ½ for the ideal
 //!   model.
 //! * **Reflections.** With O = D + R·z and X_c = d_c·D + r_c·R·z (direct and one reflection, z the
 //!   phase e^{−jωτ}), X_c / O is analytic in z on the unit disc when |R| < |D|, so its mean over

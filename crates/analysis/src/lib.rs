@@ -1,6 +1,6 @@
 //! # cma-analysis — spectral analysis of each analysis frame
 //!
-//! On the frame's spectra (`cma-dsp`'s [`spectrum`](cma_dsp::spectrum)): [`peak_picker`] (the N_p
+//! On the frame's spectra (`cma-dsp`'s [`cma_dsp::spectrum`]): [`peak_picker`] (the N_p
 //! strongest peaks of |X_omni| in a band, thesis §5.1.2, with the fill rule; settings
 //! [`peak_picker::PeakSettings`]), [`features`] (|X_card| / |X_omni| at the peaks, eq. 5.7),
 //! [`direct_sound`] (the direct-sound weights of the peaks; settings [`direct_sound::DirectSound`]),

@@ -1,6 +1,6 @@
 //! A weight that ramps linearly in power ratio between two levels given in dB: the shape of the
 //! noise-floor gate ([`crate::noise_floor`]) and of the frame-onset weight
-//! ([`crate::frame_onset`]).
+//! (`frame_onset` of `cma-localization`).
 
 /// The power ratio of a level in dB: 10^(dB/10).
 #[must_use]

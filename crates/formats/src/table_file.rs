@@ -1,4 +1,4 @@
-//! Binary reference-table file (`.cmat`): a measured [`ReferenceTable`](crate::ReferenceTable) on disk
+//! Binary reference-table file (`.cmat`): a measured `ReferenceTable` (`cma-localization`) on disk
 //! and, through `build.rs` (`CMA_TABLE=path`), in flash.
 //!
 //! The same module is compiled into the core and, with `#[path]`, into the core's build script, so the

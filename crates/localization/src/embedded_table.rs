@@ -2,7 +2,7 @@
 //! environment variable `CMA_TABLE`, the ideal-model 5° table otherwise.
 //!
 //! `build.rs` reads the file named by `CMA_TABLE` (an absolute path, or one relative to the
-//! `core-nostd` directory) with [`crate::table_file::parse`], fails the build with the parser's message
+//! `core-nostd` directory) with `cma_formats::table_file::parse`, fails the build with the parser's message
 //! if the file is bad, and emits its arrays as `static`s (`MEASURED_*` in [`crate::tables`]), so the
 //! table sits in flash once. It holds the rows of both feature kinds (magnitude and active; a
 //! version-1 file's active rows are its magnitude features and ½), or with

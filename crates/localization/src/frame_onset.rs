@@ -13,7 +13,7 @@
 //! The rise is r = P / max(P₋₁ … P₋ₙ) over the last n frame powers; the weight ramps linearly in r
 //! from [`FrameOnset::floor`] at [`FrameOnset::low_db`] to 1 at [`FrameOnset::high_db`].
 //!
-//! The product configuration switches it on ([`crate::config::DEFAULT_FRAME_ONSET`]); the thesis
+//! The product configuration switches it on (`cma_core::config::DEFAULT_FRAME_ONSET`); the thesis
 //! preset leaves it off. The weighted b drives the grid tracker's likelihood, pause detection and
 //! running mean curve, but not its velocity estimate: the talker's motion is learned from every
 //! reliable frame, decaying ones included (with the weight there too, the eval folder's moving
@@ -65,7 +65,7 @@ impl FrameOnset {
 
 /// The power history, with the per-frame constants of a [`FrameOnset`].
 ///
-/// Aligned to 8 bytes: as a 52-byte field it shifted the [`crate::Locator`]'s layout so that the
+/// Aligned to 8 bytes: as a 52-byte field it shifted the `Locator`'s layout so that the
 /// default pipeline (weighting off) cost 365 more instructions per hop on the Cortex-M4F
 /// (`scripts/cost.sh`: 149 450 against 149 073 aligned).
 #[derive(Debug, Clone)]

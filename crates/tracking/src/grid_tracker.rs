@@ -363,8 +363,8 @@ impl GridTracker {
 
     /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate, with the
     /// reliability `b` the velocity learns from (usually the b of [`GridTracker::update`]; the
-    /// [`crate::Locator`] leaves the frame onset weight out of it, see
-    /// [`crate::frame_onset`]). NaN counts as 0.
+    /// `Locator` leaves the frame onset weight out of it, see
+    /// [`cma_localization::frame_onset`]). NaN counts as 0.
     pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32, b: f32) {
         let b = unit_reliability(b);
         if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {

@@ -152,7 +152,7 @@ pub struct BackgroundLine {
 }
 
 impl BackgroundLine {
-    /// The line of the summaries of [`Locator::background_field`](crate::Locator::background_field).
+    /// The line of the summaries of `Locator::background_field` (`cma-core`).
     #[must_use]
     pub fn from_summary(
         bands: &[Option<BackgroundBand>; BG_BANDS],

@@ -15,7 +15,7 @@
 //! | `ver`    | version of the calibration line, `1` ([`CALIBRATION_VERSION`])                        |
 //! | `seq`    | calibration lines sent, `u32` decimal, +1 per line, wraps; its own count, not the frames' |
 //! | `t`      | board sample clock when the snapshot was taken: `centre_sample` of the last estimate before it (`0` at start), `u64` |
-//! | `conf`   | [`Locator::capsule_confidence`](crate::Locator::capsule_confidence) in per mille, rounded, `0..=1000` |
+//! | `conf`   | `Locator::capsule_confidence` in per mille, rounded, `0..=1000` |
 //! | `held`   | [`CapsuleEstimate::held`]: `1` the background was found not diffuse and the estimate is held, else `0` |
 //! | `drop`   | calibration lines the board dropped because the UART was busy, `u32` decimal          |
 //! | `n`      | per band ([`CAL_BANDS`] = 4, lowest first): [`BandModel::peaks`], rounded, `u32`      |
@@ -161,7 +161,7 @@ impl CalibrationLine {
     }
 
     /// The estimate the line describes (parts to 1/10000, peaks to 1), e.g. to start another
-    /// localizer from it ([`Locator::set_capsule_estimate`](crate::Locator::set_capsule_estimate)).
+    /// localizer from it (`Locator::set_capsule_estimate` of `cma-core`).
     #[must_use]
     pub fn capsules(&self) -> CapsuleEstimate {
         let mut est = CapsuleEstimate {
