@@ -240,9 +240,13 @@ impl<'t> Locator<'t> {
             fs,
         )?;
         #[cfg(feature = "thesis-options")]
-        self.intensity
-            .configure(config.intensity_settings(), &config.peak_settings(), fs);
-        let guard = InputGuard::for_decimation(config.clip_level, decimator.factor());
+        self.intensity.configure(
+            config.intensity_method(),
+            config.intensity,
+            &config.peaks,
+            fs,
+        );
+        let guard = InputGuard::for_decimation(config.front_end.clip_level, decimator.factor());
         self.offset2 = libm::round(2.0 * decimator.time_offset()) as i64;
         self.front.reset(decimator, guard);
         self.config = config;
@@ -367,8 +371,8 @@ impl<'t> Locator<'t> {
         let level = self.level.process(
             index,
             omni,
-            c.silence_power,
-            c.clipped_confidence,
+            c.front_end.silence_power,
+            c.front_end.clipped_confidence,
             &mut flags,
         );
         let (azimuth, raw, confidence) = match self.config.method {
@@ -438,20 +442,21 @@ impl<'t> Locator<'t> {
         );
         // Thesis options: combination rule 2 and/or Cartesian result filtering (off by default).
         #[cfg(feature = "thesis-options")]
-        let (azimuth, raw) = if AlternativeResult::applies(c.combination, c.smoothing) {
-            self.alternative.process(
-                c.combination,
-                &self.similarity,
-                &self.spectra,
-                &self.table,
-                frame.raw,
-                b,
-                azimuth,
-                flags,
-            )
-        } else {
-            (azimuth, frame.raw)
-        };
+        let (azimuth, raw) =
+            if AlternativeResult::applies(c.alternative.combination, c.alternative.smoothing) {
+                self.alternative.process(
+                    c.alternative.combination,
+                    &self.similarity,
+                    &self.spectra,
+                    &self.table,
+                    frame.raw,
+                    b,
+                    azimuth,
+                    flags,
+                )
+            } else {
+                (azimuth, frame.raw)
+            };
         #[cfg(not(feature = "thesis-options"))]
         let raw = frame.raw;
         self.tracker.observe(&c.tracking, azimuth, motion_b);
@@ -514,15 +519,13 @@ mod tests {
             Locator::new(LocatorConfig::default(), magnitude_only, 48_000),
             Err(Error::InvalidConfig(_))
         ));
-        let magnitude = LocatorConfig {
-            features: FeatureKind::Magnitude,
-            ..LocatorConfig::default()
-        };
+        let mut magnitude = LocatorConfig::default();
+        magnitude.curves.features = FeatureKind::Magnitude;
         assert!(Locator::new(magnitude, magnitude_only, 48_000).is_ok());
         assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
         let mut bad = [LocatorConfig::default(); 9];
-        bad[0].band_hi_hz = 100.0;
-        bad[1].num_peaks = 0;
+        bad[0].peaks.band_hi_hz = 100.0;
+        bad[1].peaks.num_peaks = 0;
         bad[2].noise_gate.full_db = bad[2].noise_gate.open_db;
         bad[3].tracking = Tracking::Grid(crate::grid_tracker::GridTracker {
             refine_gain: 2.0,
@@ -532,8 +535,8 @@ mod tests {
             onset_likelihood_floor: f32::NAN,
             ..DEFAULT_GRID_TRACKER
         });
-        bad[5].features = crate::features::FeatureKind::Active;
-        bad[5].noise_mixing = NoiseMixing::Power;
+        bad[5].curves.features = crate::features::FeatureKind::Active;
+        bad[5].curves.noise_mixing = NoiseMixing::Power;
         bad[6].frame_onset = crate::frame_onset::FrameOnset {
             enabled: true,
             history: 9,

@@ -19,6 +19,18 @@ use crate::{CHANNELS, FRAME_LEN};
 /// Sample frames cleaned at a time when a piece needs cleaning (a rare, slower path; a small copy).
 const CLEAN_PIECE: usize = 64;
 
+/// The settings of the front end: the input guard's clip level and the frame level's thresholds
+/// (in the configuration file, top-level keys of the same names).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrontEndSettings {
+    /// Omni mean-square power below which a frame is silent (b = 0).
+    pub silence_power: f32,
+    /// |sample| at or above which the input counts as clipped.
+    pub clip_level: f32,
+    /// Confidence factor applied to frames with clipped samples.
+    pub clipped_confidence: f32,
+}
+
 /// Guard, decimator and framer with their state.
 #[derive(Debug, Clone)]
 pub struct FrontEnd {

@@ -10,6 +10,16 @@ use crate::frame_spectra::FrameSpectra;
 use crate::reference_table::ReferenceTable;
 use crate::similarity_frame::SimilarityFrame;
 
+/// The settings of the thesis's alternative results (in the configuration file, the top-level keys
+/// `combination` and `smoothing`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AlternativeSettings {
+    /// How the peaks of a frame are combined (§5.1.4: rule 1 mean curve, rule 2 eq. 5.13).
+    pub combination: Combination,
+    /// Where b filters: the similarity curve (eq. 5.31) or the result in Cartesian form (eq. 5.30).
+    pub smoothing: Smoothing,
+}
+
 /// State of the stage: the eq. 5.30 result filter.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AlternativeResult {

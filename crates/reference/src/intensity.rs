@@ -20,12 +20,10 @@ pub enum IvMethod {
 }
 
 /// The settings of the intensity-vector methods (in the configuration file, the top-level keys
-/// `method`, `tdiv_pole`, `fdiv_pole` and the table `fdiv_spread`; FDIV's band is the peak
-/// picker's).
+/// `tdiv_pole`, `fdiv_pole` and the table `fdiv_spread`; which method runs is the configuration's
+/// `method`, FDIV's band the peak picker's).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntensitySettings {
-    /// TDIV or FDIV.
-    pub method: IvMethod,
     /// TDIV smoothing pole a (eq. 5.40).
     pub tdiv_pole: f32,
     /// FDIV smoothing pole a of the per-bin intensity.
@@ -37,7 +35,6 @@ pub struct IntensitySettings {
 impl IntensitySettings {
     /// The settings of an unconfigured stage.
     pub const IDLE: IntensitySettings = IntensitySettings {
-        method: IvMethod::Fdiv,
         tdiv_pole: 0.9,
         fdiv_pole: 0.95,
         fdiv_spread: FdivSpread::OFF,
@@ -47,6 +44,7 @@ impl IntensitySettings {
 /// The intensity-vector stage and its state.
 #[derive(Debug, Clone)]
 pub struct IntensityVector {
+    method: IvMethod,
     settings: IntensitySettings,
     /// FDIV's band, bins `lo_bin..=hi_bin` (the peak picker's).
     lo_bin: usize,
@@ -70,6 +68,7 @@ impl IntensityVector {
     #[must_use]
     pub const fn new() -> Self {
         Self {
+            method: IvMethod::Fdiv,
             settings: IntensitySettings::IDLE,
             lo_bin: PeakPicker::IDLE.lo_bin,
             hi_bin: PeakPicker::IDLE.hi_bin,
@@ -80,9 +79,16 @@ impl IntensityVector {
         }
     }
 
-    /// Sets the stage's `settings` and FDIV's band from the peak picker's `band` at analysis rate
-    /// `fs` Hz; leaves the state alone.
-    pub fn configure(&mut self, settings: IntensitySettings, band: &PeakSettings, fs: f32) {
+    /// Sets the stage's `method` and `settings` and FDIV's band from the peak picker's `band` at
+    /// analysis rate `fs` Hz; leaves the state alone.
+    pub fn configure(
+        &mut self,
+        method: IvMethod,
+        settings: IntensitySettings,
+        band: &PeakSettings,
+        fs: f32,
+    ) {
+        self.method = method;
         self.settings = settings;
         let band = PeakPicker::from_config(band, fs);
         self.lo_bin = band.lo_bin;
@@ -114,14 +120,14 @@ impl IntensityVector {
         }
         let (lo, hi) = (self.lo_bin, self.hi_bin);
         let c = &self.settings;
-        let iv = if c.method == IvMethod::Tdiv {
+        let iv = if self.method == IvMethod::Tdiv {
             tdiv_process(c.tdiv_pole, &mut self.tdiv, frame)
         } else {
             spectra.transform_all(frame);
             fdiv_process(c.fdiv_pole, &mut self.fdiv, spectra.channels(), lo, hi)
         };
         // Thesis option: FDIV reliability from the circular std over bins (§5.2.2), off by default.
-        let iv = if c.method == IvMethod::Fdiv && c.fdiv_spread.enabled() {
+        let iv = if self.method == IvMethod::Fdiv && c.fdiv_spread.enabled() {
             c.fdiv_spread
                 .frame(&mut self.cartesian, spectra.channels(), lo, hi)
         } else {
