@@ -19,7 +19,7 @@
 //! ```
 //! use cma_config::{parse_over, to_toml, Preset};
 //! let c = parse_over(&Preset::Default.config(), "num_peaks = 8\n[reliability]\nv_max = 0.004\n")?;
-//! assert_eq!((c.num_peaks, c.reliability.v_max), (8, 0.004));
+//! assert_eq!((c.peaks.num_peaks, c.reliability.v_max), (8, 0.004));
 //! assert_eq!(parse_over(&Preset::Thesis.config(), &to_toml(&c))?, c);
 //! assert_eq!(parse_over(&c, "num_peaks = 0").unwrap_err().key(), Some("num_peaks"));
 //! # Ok::<(), cma_config::ConfigError>(())

@@ -35,41 +35,42 @@
 //!
 //! ## Reader's map
 //!
-//! The stages live in crates of their own, each depending only on the crates above it in this
-//! list, so that no stage can reach back up the pipeline (Cargo refuses the cycle). Each stage owns
-//! its settings type and builds its state from it; [`LocatorConfig`] composes the settings (the
-//! configuration file's keys are its fields), and [`Locator`] runs the stages in this order.
+//! The stages live in crates of their own, each depending only on crates above it in this list
+//! (Cargo refuses a cycle, so no stage can reach back up the pipeline). Each stage owns its
+//! settings type and builds its state from it; [`LocatorConfig`] composes the settings, one field
+//! per stage (the configuration file keeps its flat keys: [`config::ConfigFile`]), and [`Locator`]
+//! runs the stages in this order.
 //!
-//! | # | stage | crate · module | settings |
+//! | # | stage | crate · module | settings (`LocatorConfig` field: type) |
 //! |---|-------|----------------|----------|
 //! | 0 | arithmetic, records, eigenbeams, window and FFT | `cma-dsp` · [`angle`], [`fast_math`], [`trig`], [`fast_exp`], [`estimate`], [`error`], [`bformat`], [`spectrum`], [`frame_spectra`] | — |
-//! | 1 | input guard (NaN, clipping) | `cma-frontend` · [`input_guard`] | `clip_level` |
+//! | 1 | input guard (NaN, clipping) | `cma-frontend` · [`input_guard`] | `front_end`: [`front_end::FrontEndSettings`] (`clip_level`) |
 //! | 2 | half-band decimation 48 → 12 kHz | `cma-frontend` · [`decimator`], [`block_decimator`] | — (the input rate) |
 //! | 3 | 512-sample frames, hop 256 | `cma-frontend` · [`framer`], [`front_end`] | — |
-//! | 4 | frame level, silence, gate | `cma-frontend` · [`frame_level`] | `silence_power`, `clipped_confidence` |
-//! | 5 | noise-floor gate of b | `cma-analysis` · [`noise_floor`] ([`power_ramp`]) | [`noise_floor::NoiseGate`] (`noise_gate`) |
-//! | 6 | peaks of \|X_omni\| (§5.1.2) | `cma-analysis` · [`peak_picker`] | [`peak_picker::PeakSettings`] (`band_lo_hz`, `band_hi_hz`, `num_peaks`, `peak_threshold`, `fill_peaks`) |
-//! | 7 | self-calibration of the cardioids, background field | `cma-calibration` · [`capsule_calibration`], [`background_field`] ([`band_floors`]) | [`capsule_calibration::CapsuleCalibration`] (`capsule_calibration`), [`background_field::BackgroundField`] (`background`) |
-//! | 8 | features at the peaks (eq. 5.7), direct-sound weights | `cma-analysis` · [`features`], [`direct_sound`] | `features`; [`direct_sound::DirectSound`] (`direct_sound`) |
-//! | 9 | reference tables, noisy references (eq. 5.16–5.20) | `cma-localization` · [`reference_table`], [`embedded_table`], [`noisy_reference`] | the table; part of [`similarity::CurveSettings`] |
-//! | 10 | similarity curve | `cma-localization` · [`similarity`], [`curve_kernel`] | [`similarity::CurveSettings`] (`measure`, `noise_mixing`, `snr_*`, `mean_free`, `features`); [`curve_kernel::CurveKernel`] (`kernel`) |
-//! | 11 | reliability b (eq. 5.31) or frame quality (§5.1.6) | `cma-localization` · [`reliability`], [`frame_quality`] | [`reliability::Reliability`] (`reliability`), [`frame_quality::FrameQuality`] (`quality`) |
-//! | 12 | frame onset weight of b | `cma-localization` · [`frame_onset`] | [`frame_onset::FrameOnset`] (`frame_onset`) |
-//! | — | steps 6–11 on one frame | `cma-localization` · [`similarity_frame`] | [`similarity_frame::SimilaritySettings`] |
-//! | 13 | tracking: one-pole filter or grid tracker, argmax | `cma-tracking` · [`curve_tracker`], [`grid_tracker`], [`running_curve`], [`refine_curve`]; [`interpolation`] | [`curve_tracker::Tracking`] (`tracking`) |
-//! | 14 | several talkers | `cma-tracking` · [`multi_track`] | [`multi_track::MultiTrack`] (`multi_track`) |
-//! | — | thesis options: rule 2, Cartesian filter | `cma-reference` · [`combination`], [`cartesian_filter`], [`alternative_result`] | `combination`, `smoothing` |
-//! | — | baselines TDIV / FDIV | `cma-reference` · [`tdiv`], [`fdiv`], [`intensity`] | [`intensity::IntensitySettings`] (`method`, `tdiv_pole`, `fdiv_pole`, `fdiv_spread`) |
+//! | 4 | frame level, silence, gate | `cma-frontend` · [`frame_level`] | `front_end` (`silence_power`, `clipped_confidence`) |
+//! | 5 | noise-floor gate of b | `cma-analysis` · [`noise_floor`] ([`power_ramp`]) | `noise_gate`: [`noise_floor::NoiseGate`] |
+//! | 6 | peaks of \|X_omni\| (§5.1.2) | `cma-analysis` · [`peak_picker`] | `peaks`: [`peak_picker::PeakSettings`] |
+//! | 7 | self-calibration of the cardioids, background field | `cma-calibration` · [`capsule_calibration`], [`background_field`] ([`band_floors`]) | `capsule_calibration`: [`capsule_calibration::CapsuleCalibration`]; `background`: [`background_field::BackgroundField`] |
+//! | 8 | features at the peaks (eq. 5.7), direct-sound weights | `cma-analysis` · [`features`], [`direct_sound`] | `curves.features`: [`features::FeatureKind`]; `direct_sound`: [`direct_sound::DirectSound`] |
+//! | 9 | reference tables, noisy references (eq. 5.16–5.20) | `cma-localization` · [`reference_table`], [`embedded_table`], [`noisy_reference`] | the [`ReferenceTable`]; `curves` (`noise_mixing`, `snr_*`) |
+//! | 10 | similarity curve | `cma-localization` · [`similarity`], [`curve_kernel`] | `curves`: [`similarity::CurveSettings`]; `kernel`: [`curve_kernel::CurveKernel`] |
+//! | 11 | reliability b (eq. 5.31) or frame quality (§5.1.6) | `cma-localization` · [`reliability`], [`frame_quality`] | `reliability`: [`reliability::Reliability`]; `quality`: [`frame_quality::FrameQuality`] |
+//! | 12 | frame onset weight of b | `cma-localization` · [`frame_onset`] | `frame_onset`: [`frame_onset::FrameOnset`] |
+//! | — | steps 6–11 on one frame | `cma-localization` · [`similarity_frame`] | [`similarity_frame::SimilaritySettings`] ([`LocatorConfig::similarity_settings`]) |
+//! | 13 | tracking: one-pole filter or grid tracker, argmax | `cma-tracking` · [`curve_tracker`], [`grid_tracker`], [`running_curve`], [`refine_curve`]; [`interpolation`] | `tracking`: [`curve_tracker::Tracking`] |
+//! | 14 | several talkers | `cma-tracking` · [`multi_track`] | `multi_track`: [`multi_track::MultiTrack`] |
+//! | — | thesis options: rule 2, Cartesian filter | `cma-reference` · [`combination`], [`cartesian_filter`], [`alternative_result`] | `alternative`: [`alternative_result::AlternativeSettings`] |
+//! | — | baselines TDIV / FDIV | `cma-reference` · [`tdiv`], [`fdiv`], [`intensity`] | `method`: [`Method`]; `intensity`: [`intensity::IntensitySettings`] |
 //! | — | host studies: beamformer, distance | `cma-reference` · [`beamformer`], [`distance`] | — |
 //! | — | wire and file formats | `cma-formats` · [`wire`], [`table_file`], [`capsule_estimate_file`], [`capsule_estimate_record`] | — |
 //!
-//! The crates' order: `cma-dsp` → `cma-frontend`, `cma-analysis` → `cma-calibration` →
-//! `cma-localization` → `cma-tracking` → `cma-formats`; `cma-reference` sits beside the tracking
-//! (on the localization); `cma-core` (this crate: [`config`], [`locator`]) composes them all and
-//! names every module at its root (`cma_core::spectrum`, …). The thesis options and the baselines
-//! run only with this crate's `thesis-options` feature (the host programs); without it they are not
-//! linked and a configuration that selects one is an error. A program that only reads and writes
-//! the formats depends on `cma-formats` alone.
+//! The crates' dependencies: `cma-dsp` under all; `cma-frontend` on it alone; `cma-analysis` →
+//! `cma-calibration` → `cma-localization` → `cma-tracking` → `cma-formats`, each on the ones before;
+//! `cma-reference` on the localization; `cma-core` (this crate: [`config`], [`locator`]) on all of
+//! them, naming every module at its root (`cma_core::spectrum`, …). The thesis options and the
+//! baselines run only with this crate's `thesis-options` feature (the host programs); without it
+//! they are not linked and a configuration that selects one is an error. A program that only reads
+//! and writes the formats depends on `cma-formats` alone.
 //!
 //! "Frame" has two meanings in this crate, as in the literature: a *sample frame* is one instant across the
 //! four channels (`[f32; 4]`), an *analysis frame* is a block of [`FRAME_LEN`] samples per channel.
