@@ -495,6 +495,21 @@ mod tests {
     use crate::noisy_reference::NoiseMixing;
 
     #[test]
+    fn the_baselines_and_thesis_options_need_their_feature() {
+        let table = ReferenceTable::ideal_5deg();
+        let fdiv = LocatorConfig {
+            method: Method::Fdiv,
+            ..LocatorConfig::default()
+        };
+        let mut rule2 = LocatorConfig::thesis();
+        rule2.alternative.combination = crate::combination::Combination::PeakCircularMedian;
+        for c in [fdiv, rule2] {
+            let built = Locator::new(c, table, 48_000);
+            assert_eq!(built.is_ok(), cfg!(feature = "thesis-options"), "{c:?}");
+        }
+    }
+
+    #[test]
     fn invalid_settings_are_errors_not_panics() {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
