@@ -98,10 +98,10 @@ num() {
     echo "$1" | sed -e ':a' -e 's/\([0-9]\)\([0-9]\{3\}\)\($\| \)/\1 \2\3/' -e 'ta'
 }
 
-commit="$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- core-nostd qemu-check || echo '+dirty')"
+commit="$(git rev-parse --short HEAD)$(git diff --quiet HEAD -- core-nostd crates qemu-check || echo '+dirty')"
 block=$(sed -n 's/^pub const FIRMWARE_BLOCK: usize = \([0-9]*\);/\1/p' qemu-check/src/lib.rs)
 rate=$(sed -n 's/^pub const FIRMWARE_RATE_HZ: u32 = \([0-9_]*\);/\1/p' qemu-check/src/lib.rs | tr -d _)
-# The core's decimation factor at this rate (core-nostd/src/frontend/decimator.rs) and its hop.
+# The core's decimation factor at this rate (crates/frontend/src/decimator.rs) and its hop.
 case "$rate" in
     44100 | 48000) factor=4 ;;
     88200 | 96000) factor=8 ;;

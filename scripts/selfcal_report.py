@@ -210,7 +210,7 @@ def main():
         "# Capsule self-calibration: measured",
         "",
         "How the self-calibration works is described in the module documentation of",
-        "[`cma_core::capsule_calibration`](../core-nostd/src/analysis/capsule_calibration.rs). This page gives what it",
+        "[`cma_core::capsule_calibration`](../crates/calibration/src/capsule_calibration.rs). This page gives what it",
         f"does on validation scenes made by `scripts/selfcal_validation.py` (seeds {a.seeds}): shoebox rooms",
         "of RT60 0.3–0.55 s, a talker 1–2 m away, 3-D diffuse noise at 0–10 dB (3 dB for the short scenes),",
         "cardioid gains uniform within ±1 dB and patterns β within 0.42–0.58 (half of the long scenes with a",

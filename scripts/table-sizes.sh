@@ -56,7 +56,7 @@ table=$(
   row "24 × 21" "$work/grid15.cmat" active
   row "24 × 21" "$work/grid15.cmat" magnitude
   echo
-  echo "Written by \`scripts/table-sizes.sh --doc\` at $(git rev-parse --short HEAD)$(git diff --quiet -- firmware core-nostd || echo ' with local changes')."
+  echo "Written by \`scripts/table-sizes.sh --doc\` at $(git rev-parse --short HEAD)$(git diff --quiet -- firmware core-nostd crates || echo ' with local changes')."
 )
 # The default image again, for whatever runs next.
 CMA_TABLE="" CMA_TABLE_FEATURES="" cargo build -q -p firmware --release --target $TARGET

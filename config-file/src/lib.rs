@@ -19,7 +19,7 @@
 //! ```
 //! use cma_config::{parse_over, to_toml, Preset};
 //! let c = parse_over(&Preset::Default.config(), "num_peaks = 8\n[reliability]\nv_max = 0.004\n")?;
-//! assert_eq!((c.num_peaks, c.reliability.v_max), (8, 0.004));
+//! assert_eq!((c.peaks.num_peaks, c.reliability.v_max), (8, 0.004));
 //! assert_eq!(parse_over(&Preset::Thesis.config(), &to_toml(&c))?, c);
 //! assert_eq!(parse_over(&c, "num_peaks = 0").unwrap_err().key(), Some("num_peaks"));
 //! # Ok::<(), cma_config::ConfigError>(())
@@ -428,11 +428,14 @@ mod tests {
         )
         .unwrap();
         let mut expected = base;
-        expected.band_hi_hz = 3500.0;
+        expected.peaks.band_hi_hz = 3500.0;
         expected.capsule_calibration.shrinkage = 2.5;
         assert_eq!(c, expected);
         let c = parse_over(&base, "tracking = \"OnePole\"\nmeasure = { Lp = 1.0 }").unwrap();
-        assert_eq!(c.measure, cma_core::similarity::SimilarityMeasure::Lp(1.0));
+        assert_eq!(
+            c.curves.measure,
+            cma_core::similarity::SimilarityMeasure::Lp(1.0)
+        );
     }
 
     #[test]
@@ -503,7 +506,7 @@ mod tests {
         assert_eq!(e.key(), Some("band_lo_hz`, `band_hi_hz"), "{e}");
         assert_eq!(e.keys(), ["band_lo_hz", "band_hi_hz"]);
         let mut c = base;
-        c.band_lo_hz = 5000.0;
+        c.peaks.band_lo_hz = 5000.0;
         let e = validate_changes(&base, &c).unwrap_err();
         assert_eq!(e.keys(), ["band_lo_hz"], "{e}");
     }

@@ -12,7 +12,7 @@ use std::fmt;
 
 /// Where each configuration type lives, by the name its `Serialize` derive gives.
 const PATHS: &[(&str, &str)] = &[
-    ("LocatorConfig", "cma_core::config::LocatorConfig"),
+    ("ConfigFile", "cma_core::config::ConfigFile"),
     ("Method", "cma_core::config::Method"),
     ("Tracking", "cma_core::config::Tracking"),
     ("GridTracker", "cma_core::grid_tracker::GridTracker"),
@@ -48,14 +48,15 @@ const PATHS: &[(&str, &str)] = &[
     ("Smoothing", "cma_core::cartesian_filter::Smoothing"),
 ];
 
-/// `config` as a Rust constant expression of type `cma_core::LocatorConfig`, every path absolute.
+/// `config` as a Rust constant expression of type `cma_core::LocatorConfig`, every path absolute:
+/// the file's form (`cma_core::config::ConfigFile`, every key as in the file) and its conversion.
 pub fn to_rust(config: &LocatorConfig) -> Result<String, crate::ConfigError> {
     let mut w = Writer(String::new());
     config.serialize(&mut w).map_err(|e| crate::ConfigError {
         key: None,
         message: e.0,
     })?;
-    Ok(w.0)
+    Ok(format!("{}.into_config()", w.0))
 }
 
 /// Why a value could not be written as Rust.
@@ -290,7 +291,7 @@ mod tests {
         let code = to_rust(&LocatorConfig::thesis()).unwrap();
         assert!(
             code.starts_with(
-                "cma_core::config::LocatorConfig { method: cma_core::config::Method::Similarity, "
+                "cma_core::config::ConfigFile { method: cma_core::config::Method::Similarity, "
             ),
             "{code}"
         );
@@ -303,6 +304,7 @@ mod tests {
         let code = to_rust(&LocatorConfig::default()).unwrap();
         assert!(code.contains("tracking: cma_core::config::Tracking::Grid(cma_core::grid_tracker::GridTracker { sharpness: 60.0f32, "), "{code}");
         assert!(code.contains("kernel: cma_core::curve_kernel::CurveKernel::Distance { power: cma_core::refine_curve::DistancePower::ThreeHalves, scale: 1.5f32, }"), "{code}");
+        assert!(code.ends_with(" }.into_config()"), "{code}");
         assert_eq!(code.matches('{').count(), code.matches('}').count());
     }
 }

@@ -33,38 +33,44 @@
 //! # Ok::<(), cma_core::Error>(())
 //! ```
 //!
-//! The source tree groups the modules by part: [`frontend`], [`analysis`], [`localization`],
-//! [`tracking`], [`baselines`], [`thesis_options`], [`formats`], [`arith`]; each module is also
-//! reachable at the crate root (`cma_core::spectrum`, …). The pipeline, one module per stage:
+//! ## Reader's map
 //!
-//! 1. [`decimator`] — half-band anti-alias cascade, 48 kHz → 12 kHz (44.1 → 11.025, 16 kHz passes);
-//!    [`block_decimator`] runs it over pieces of interleaved input, all stages in one pass;
-//! 2. [`framer`] — 512-sample analysis frames with a hop of 256 ([`front_end`] runs the input guard,
-//!    the decimator and the framer block by block);
-//! 3. [`spectrum`] — Hamming window from a table, `microfft` real FFT, Nyquist bin unpacked; for the
-//!    similarity method the cardioids only at the picked bins (folded frame + direct DFT);
-//! 4. [`peak_picker`] — the N_p strongest peaks of |X_omni| in a band (thesis §5.1.2, with the fill rule);
-//! 5. [`features`] — |X_card| / |X_omni| at the peaks (eq. 5.7);
-//! 6. [`reference_table`] — reference features in flash (ideal model or measured, per frequency);
-//! 7. [`noisy_reference`] — reference features mixed with omni noise at a set of SNRs (eq. 5.16–5.20);
-//! 8. [`similarity`] — Euclidean / cosine / L_p similarity and the mean similarity curve;
-//! 9. [`reliability`] — curve-variance confidence and the adaptive one-pole filter on the curve (eq. 5.31),
-//!    or [`grid_tracker`] — the product's Bayesian tracker on the curve (no lag, fast jumps);
-//! 10. [`interpolation`] — wrapped argmax with parabolic interpolation (eq. 4.23–4.29).
+//! The stages live in crates of their own, each depending only on crates above it in this list
+//! (Cargo refuses a cycle, so no stage can reach back up the pipeline). Each stage owns its
+//! settings type and builds its state from it; [`LocatorConfig`] composes the settings, one field
+//! per stage (the configuration file keeps its flat keys: [`config::ConfigFile`]), and [`Locator`]
+//! runs the stages in this order.
 //!
-//! Per analysis frame, [`frame_level`] measures the frame's power and gate, [`similarity_frame`] runs
-//! steps 3–8 and the reliability of step 9, and [`curve_tracker`] the tracking of steps 9–10.
-//! [`locator::Locator`] composes the stages: feed it blocks of interleaved 4-channel samples (as a DMA
-//! handler receives them) and it calls back once per analysis frame with an [`estimate::Estimate`].
-//! The intensity-vector baselines [`tdiv`] and [`fdiv`] sit behind the same interface ([`intensity`]).
+//! | # | stage | crate · module | settings (`LocatorConfig` field: type) |
+//! |---|-------|----------------|----------|
+//! | 0 | arithmetic, records, eigenbeams, window and FFT | `cma-dsp` · [`angle`], [`fast_math`], [`trig`], [`fast_exp`], [`estimate`], [`error`], [`bformat`], [`spectrum`], [`frame_spectra`] | — |
+//! | 1 | input guard (NaN, clipping) | `cma-frontend` · [`input_guard`] | `front_end`: [`front_end::FrontEndSettings`] (`clip_level`) |
+//! | 2 | half-band decimation 48 → 12 kHz | `cma-frontend` · [`decimator`], [`block_decimator`] | — (the input rate) |
+//! | 3 | 512-sample frames, hop 256 | `cma-frontend` · [`framer`], [`front_end`] | — |
+//! | 4 | frame level, silence, gate | `cma-frontend` · [`frame_level`] | `front_end` (`silence_power`, `clipped_confidence`) |
+//! | 5 | noise-floor gate of b | `cma-analysis` · [`noise_floor`] ([`power_ramp`]) | `noise_gate`: [`noise_floor::NoiseGate`] |
+//! | 6 | peaks of \|X_omni\| (§5.1.2) | `cma-analysis` · [`peak_picker`] | `peaks`: [`peak_picker::PeakSettings`] |
+//! | 7 | self-calibration of the cardioids, background field | `cma-calibration` · [`capsule_calibration`], [`background_field`] ([`band_floors`]) | `capsule_calibration`: [`capsule_calibration::CapsuleCalibration`]; `background`: [`background_field::BackgroundField`] |
+//! | 8 | features at the peaks (eq. 5.7), direct-sound weights | `cma-analysis` · [`features`], [`direct_sound`] | `curves.features`: [`features::FeatureKind`]; `direct_sound`: [`direct_sound::DirectSound`] |
+//! | 9 | reference tables, noisy references (eq. 5.16–5.20) | `cma-localization` · [`reference_table`], [`embedded_table`], [`noisy_reference`] | the [`ReferenceTable`]; `curves` (`noise_mixing`, `snr_*`) |
+//! | 10 | similarity curve | `cma-localization` · [`similarity`], [`curve_kernel`] | `curves`: [`similarity::CurveSettings`]; `kernel`: [`curve_kernel::CurveKernel`] |
+//! | 11 | reliability b (eq. 5.31) or frame quality (§5.1.6) | `cma-localization` · [`reliability`], [`frame_quality`] | `reliability`: [`reliability::Reliability`]; `quality`: [`frame_quality::FrameQuality`] |
+//! | 12 | frame onset weight of b | `cma-localization` · [`frame_onset`] | `frame_onset`: [`frame_onset::FrameOnset`] |
+//! | — | steps 6–11 on one frame | `cma-localization` · [`similarity_frame`] | [`similarity_frame::SimilaritySettings`] ([`LocatorConfig::similarity_settings`]) |
+//! | 13 | tracking: one-pole filter or grid tracker, argmax | `cma-tracking` · [`curve_tracker`], [`grid_tracker`], [`running_curve`], [`refine_curve`]; [`interpolation`] | `tracking`: [`curve_tracker::Tracking`] |
+//! | 14 | several talkers | `cma-tracking` · [`multi_track`] | `multi_track`: [`multi_track::MultiTrack`] |
+//! | — | thesis options: rule 2, Cartesian filter | `cma-reference` · [`combination`], [`cartesian_filter`], [`alternative_result`] | `alternative`: [`alternative_result::AlternativeSettings`] |
+//! | — | baselines TDIV / FDIV | `cma-reference` · [`tdiv`], [`fdiv`], [`intensity`] | `method`: [`Method`]; `intensity`: [`intensity::IntensitySettings`] |
+//! | — | host studies: beamformer, distance | `cma-reference` · [`beamformer`], [`distance`] | — |
+//! | — | wire and file formats | `cma-formats` · [`wire`], [`table_file`], [`capsule_estimate_file`], [`capsule_estimate_record`] | — |
 //!
-//! The thesis's further options: [`beamformer`] (self-steered first-order beam, §3.3),
-//! [`frame_quality`] (§5.1.6 quality measures), [`combination`] (rule 2, eq. 5.13; FDIV spread),
-//! [`cartesian_filter`] (eq. 5.30); [`alternative_result`] applies rule 2 and eq. 5.30 to the
-//! similarity method's result.
-//!
-//! [`config::LocatorConfig`] holds the settings of all stages as plain data; each stage builds
-//! itself from them (e.g. [`peak_picker::PeakPicker::from_config`]).
+//! The crates' dependencies: `cma-dsp` under all; `cma-frontend` on it alone; `cma-analysis` →
+//! `cma-calibration` → `cma-localization` → `cma-tracking` → `cma-formats`, each on the ones before;
+//! `cma-reference` on the localization; `cma-core` (this crate: [`config`], [`locator`]) on all of
+//! them, naming every module at its root (`cma_core::spectrum`, …). The thesis options and the
+//! baselines run only with this crate's `thesis-options` feature (the host programs); without it
+//! they are not linked and a configuration that selects one is an error. A program that only reads
+//! and writes the formats depends on `cma-formats` alone.
 //!
 //! "Frame" has two meanings in this crate, as in the literature: a *sample frame* is one instant across the
 //! four channels (`[f32; 4]`), an *analysis frame* is a block of [`FRAME_LEN`] samples per channel.
@@ -72,62 +78,32 @@
 #![no_std]
 #![deny(clippy::float_cmp_const)]
 
-pub mod analysis;
-pub mod arith;
-pub mod baselines;
 pub mod config;
-pub mod error;
-pub mod estimate;
-pub mod formats;
-pub mod frontend;
-pub mod localization;
 pub mod locator;
-#[cfg(test)]
-mod test_rng;
-pub mod thesis_options;
-pub mod tracking;
 
-// Every stage module also at the crate root, where the rest of the crate and its users name it.
-#[cfg(target_arch = "x86_64")]
-pub(crate) use analysis::fft_x86;
-pub use analysis::{
-    background_field, band_floors, capsule_calibration, direct_sound, features, frame_level,
-    frame_spectra, peak_picker, spectrum,
+// Every stage module at the crate root, where the users of the localizer name it.
+pub use cma_analysis::{direct_sound, features, noise_floor, peak_picker, power_ramp};
+pub use cma_calibration::{background_field, band_floors, capsule_calibration};
+pub use cma_dsp::{
+    angle, bformat, error, estimate, fast_exp, fast_math, frame_spectra, spectrum, trig,
 };
-pub use arith::{angle, fast_exp, fast_math, trig};
-pub use baselines::{bformat, fdiv, intensity, tdiv};
-pub use formats::{capsule_estimate_file, capsule_estimate_record, table_file, wire};
-pub use frontend::{block_decimator, decimator, framer, front_end, input_guard};
-pub use localization::{
-    curve_kernel, embedded_table, frame_onset, interpolation, noise_floor, noisy_reference,
-    power_ramp, reference_table, reliability, similarity, similarity_frame, tables,
+pub use cma_formats::{capsule_estimate_file, capsule_estimate_record, table_file, wire};
+pub use cma_frontend::{block_decimator, decimator, frame_level, framer, front_end, input_guard};
+pub use cma_localization::{
+    curve_kernel, embedded_table, frame_onset, frame_quality, interpolation, noisy_reference,
+    reference_table, reliability, similarity, similarity_frame,
 };
-pub use thesis_options::{
-    alternative_result, beamformer, cartesian_filter, combination, distance, frame_quality,
+pub use cma_reference::{
+    alternative_result, beamformer, cartesian_filter, combination, distance, fdiv, intensity, tdiv,
 };
-pub use tracking::{curve_tracker, grid_tracker, multi_track, refine_curve, running_curve};
+pub use cma_tracking::{curve_tracker, grid_tracker, multi_track, refine_curve, running_curve};
 
+pub use cma_dsp::{
+    CARDIOIDS, CARDIOID_LOOK_DEG, CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, MAX_SNR_SETS,
+    NUM_BINS,
+};
 pub use config::{LocatorConfig, Method};
 pub use error::Error;
 pub use estimate::{Estimate, Flags};
 pub use locator::Locator;
 pub use reference_table::ReferenceTable;
-
-/// Number of input channels: omni, cardioid 0°, cardioid 120°, cardioid 240°.
-pub const CHANNELS: usize = 4;
-/// Number of cardioid channels (the feature dimension).
-pub const CARDIOIDS: usize = 3;
-/// Analysis frame length in samples at the analysis rate (thesis §5.1.1: the power of two ≤ 50 ms).
-pub const FRAME_LEN: usize = 512;
-/// Hop between analysis frames in samples at the analysis rate (50 % overlap).
-pub const HOP: usize = FRAME_LEN / 2;
-/// Number of spectral bins of a frame, DC to Nyquist inclusive.
-pub const NUM_BINS: usize = FRAME_LEN / 2 + 1;
-/// Largest number of spectral peaks per frame ([`LocatorConfig::num_peaks`]).
-pub const MAX_PEAKS: usize = 32;
-/// Largest number of azimuths in a reference table (a 1° grid).
-pub const MAX_AZIMUTHS: usize = 360;
-/// Largest number of SNR sets of the noisy reference features.
-pub const MAX_SNR_SETS: usize = 16;
-/// Look directions of the three cardioids, degrees counter-clockwise from cardioid 1.
-pub const CARDIOID_LOOK_DEG: [f32; CARDIOIDS] = [0.0, 120.0, 240.0];

@@ -12,11 +12,13 @@
 //! peaks → features → curve → reliability b), [`crate::noise_floor`] and [`crate::frame_onset`]
 //! (weights of b), [`crate::curve_tracker`] (one-pole filter or grid
 //! tracker), [`crate::alternative_result`] (thesis options), [`crate::multi_track`] and
-//! [`crate::intensity`] (the baselines).
+//! [`crate::intensity`] (the baselines). The thesis options and the baselines are fields of the
+//! localizer only with the `thesis-options` feature.
 //!
 //! The same code runs on the host (`host-sim`) and on the Cortex-M4F (`firmware`): feed it whatever
 //! block size the DMA delivers.
 
+#[cfg(feature = "thesis-options")]
 use crate::alternative_result::AlternativeResult;
 use crate::angle::wrap_deg;
 use crate::background_field::BackgroundBand;
@@ -31,6 +33,7 @@ use crate::frame_onset::FrameOnsetState;
 use crate::frame_spectra::FrameSpectra;
 use crate::front_end::FrontEnd;
 use crate::input_guard::InputGuard;
+#[cfg(feature = "thesis-options")]
 use crate::intensity::IntensityVector;
 use crate::multi_track::{MultiTrackState, TalkerTrack};
 use crate::noise_floor::NoiseFloor;
@@ -64,8 +67,10 @@ pub struct Locator<'t> {
     /// The similarity method over frames.
     tracker: CurveTracker,
     /// The thesis's alternative results (rule 2, eq. 5.30 filter).
+    #[cfg(feature = "thesis-options")]
     alternative: AlternativeResult,
     /// TDIV and FDIV.
+    #[cfg(feature = "thesis-options")]
     intensity: IntensityVector,
     /// Talker tracks of the multi-talker stage.
     multi: MultiTrackState,
@@ -125,8 +130,10 @@ impl<'t> Locator<'t> {
             frame_onset: _,
             similarity: _,
             tracker: _,
-            alternative: _,
-            intensity: _,
+            #[cfg(feature = "thesis-options")]
+                alternative: _,
+            #[cfg(feature = "thesis-options")]
+                intensity: _,
             multi: _,
         };
         let p = slot.as_mut_ptr();
@@ -146,7 +153,9 @@ impl<'t> Locator<'t> {
             addr_of_mut!((*p).frame_onset).write(FrameOnsetState::idle());
             addr_of_mut!((*p).similarity).write(SimilarityFrame::new());
             addr_of_mut!((*p).tracker).write(const { CurveTracker::new() });
+            #[cfg(feature = "thesis-options")]
             addr_of_mut!((*p).alternative).write(AlternativeResult::new());
+            #[cfg(feature = "thesis-options")]
             addr_of_mut!((*p).intensity).write(IntensityVector::new());
             addr_of_mut!((*p).multi).write(MultiTrackState::new());
             slot.assume_init_mut()
@@ -169,7 +178,9 @@ impl<'t> Locator<'t> {
             frame_onset: FrameOnsetState::idle(),
             similarity: SimilarityFrame::new(),
             tracker: CurveTracker::new(),
+            #[cfg(feature = "thesis-options")]
             alternative: AlternativeResult::new(),
+            #[cfg(feature = "thesis-options")]
             intensity: IntensityVector::new(),
             multi: MultiTrackState::new(),
         }
@@ -189,8 +200,11 @@ impl<'t> Locator<'t> {
         self.spectra.reset();
         self.similarity.reset();
         self.tracker = CurveTracker::new();
-        self.alternative = AlternativeResult::new();
-        self.intensity.reset();
+        #[cfg(feature = "thesis-options")]
+        {
+            self.alternative = AlternativeResult::new();
+            self.intensity.reset();
+        }
         self.multi = MultiTrackState::new();
         self.reset_configured_state();
         Ok(())
@@ -219,9 +233,20 @@ impl<'t> Locator<'t> {
         let fs = decimator.output_rate() as f32;
         config.validate(fs, &table)?;
         // The last step that can fail; it changes nothing on error.
-        self.similarity.configure(&config, &table, fs)?;
-        self.intensity.configure(&config, fs);
-        let guard = InputGuard::for_decimation(config.clip_level, decimator.factor());
+        self.similarity.configure(
+            &config.similarity_settings(),
+            config.refine_power(),
+            &table,
+            fs,
+        )?;
+        #[cfg(feature = "thesis-options")]
+        self.intensity.configure(
+            config.intensity_method(),
+            config.intensity,
+            &config.peaks,
+            fs,
+        );
+        let guard = InputGuard::for_decimation(config.front_end.clip_level, decimator.factor());
         self.offset2 = libm::round(2.0 * decimator.time_offset()) as i64;
         self.front.reset(decimator, guard);
         self.config = config;
@@ -346,22 +371,26 @@ impl<'t> Locator<'t> {
         let level = self.level.process(
             index,
             omni,
-            c.silence_power,
-            c.clipped_confidence,
+            c.front_end.silence_power,
+            c.front_end.clipped_confidence,
             &mut flags,
         );
         let (azimuth, raw, confidence) = match self.config.method {
             Method::Similarity => self.similarity_frame(&level, &mut flags),
+            #[cfg(feature = "thesis-options")]
             Method::Fdiv | Method::Tdiv => {
                 let iv =
                     self.intensity
-                        .process(c, level.usable, self.front.frame(), &mut self.spectra);
+                        .process(level.usable, self.front.frame(), &mut self.spectra);
                 (
                     iv.azimuth_deg,
                     iv.azimuth_raw_deg,
                     iv.confidence * level.gate,
                 )
             }
+            // Not linked: `LocatorConfig::validate` rejects the baselines without the feature.
+            #[cfg(not(feature = "thesis-options"))]
+            Method::Fdiv | Method::Tdiv => (0.0, 0.0, 0.0),
         };
         let factor = self.front.decimator().factor() as i64;
         let centre2 =
@@ -386,7 +415,6 @@ impl<'t> Locator<'t> {
         // The frame's usable peaks: per-frame scratch on the stack (static RAM is the scarcer).
         let mut used = [PeakFeature::NONE; MAX_PEAKS];
         let frame = self.similarity.process(
-            c,
             self.front.frame(),
             &mut self.spectra,
             &self.table,
@@ -413,20 +441,24 @@ impl<'t> Locator<'t> {
             flags,
         );
         // Thesis options: combination rule 2 and/or Cartesian result filtering (off by default).
-        let (azimuth, raw) = if AlternativeResult::applies(c.combination, c.smoothing) {
-            self.alternative.process(
-                c.combination,
-                &self.similarity,
-                &self.spectra,
-                &self.table,
-                frame.raw,
-                b,
-                azimuth,
-                flags,
-            )
-        } else {
-            (azimuth, frame.raw)
-        };
+        #[cfg(feature = "thesis-options")]
+        let (azimuth, raw) =
+            if AlternativeResult::applies(c.alternative.combination, c.alternative.smoothing) {
+                self.alternative.process(
+                    c.alternative.combination,
+                    &self.similarity,
+                    &self.spectra,
+                    &self.table,
+                    frame.raw,
+                    b,
+                    azimuth,
+                    flags,
+                )
+            } else {
+                (azimuth, frame.raw)
+            };
+        #[cfg(not(feature = "thesis-options"))]
+        let raw = frame.raw;
         self.tracker.observe(&c.tracking, azimuth, motion_b);
         #[cfg(feature = "multi-talker")]
         if c.multi_track.enabled {
@@ -463,6 +495,21 @@ mod tests {
     use crate::noisy_reference::NoiseMixing;
 
     #[test]
+    fn the_baselines_and_thesis_options_need_their_feature() {
+        let table = ReferenceTable::ideal_5deg();
+        let fdiv = LocatorConfig {
+            method: Method::Fdiv,
+            ..LocatorConfig::default()
+        };
+        let mut rule2 = LocatorConfig::thesis();
+        rule2.alternative.combination = crate::combination::Combination::PeakCircularMedian;
+        for c in [fdiv, rule2] {
+            let built = Locator::new(c, table, 48_000);
+            assert_eq!(built.is_ok(), cfg!(feature = "thesis-options"), "{c:?}");
+        }
+    }
+
+    #[test]
     fn invalid_settings_are_errors_not_panics() {
         let table = ReferenceTable::ideal_5deg();
         assert!(Locator::new(LocatorConfig::default(), table, 48_000).is_ok());
@@ -487,15 +534,13 @@ mod tests {
             Locator::new(LocatorConfig::default(), magnitude_only, 48_000),
             Err(Error::InvalidConfig(_))
         ));
-        let magnitude = LocatorConfig {
-            features: FeatureKind::Magnitude,
-            ..LocatorConfig::default()
-        };
+        let mut magnitude = LocatorConfig::default();
+        magnitude.curves.features = FeatureKind::Magnitude;
         assert!(Locator::new(magnitude, magnitude_only, 48_000).is_ok());
         assert!(Locator::new(LocatorConfig::thesis(), table, 16_000).is_ok());
         let mut bad = [LocatorConfig::default(); 9];
-        bad[0].band_hi_hz = 100.0;
-        bad[1].num_peaks = 0;
+        bad[0].peaks.band_hi_hz = 100.0;
+        bad[1].peaks.num_peaks = 0;
         bad[2].noise_gate.full_db = bad[2].noise_gate.open_db;
         bad[3].tracking = Tracking::Grid(crate::grid_tracker::GridTracker {
             refine_gain: 2.0,
@@ -505,8 +550,8 @@ mod tests {
             onset_likelihood_floor: f32::NAN,
             ..DEFAULT_GRID_TRACKER
         });
-        bad[5].features = crate::features::FeatureKind::Active;
-        bad[5].noise_mixing = NoiseMixing::Power;
+        bad[5].curves.features = crate::features::FeatureKind::Active;
+        bad[5].curves.noise_mixing = NoiseMixing::Power;
         bad[6].frame_onset = crate::frame_onset::FrameOnset {
             enabled: true,
             history: 9,

@@ -65,7 +65,7 @@ fn front_end_per_hop(c: &mut Criterion) {
     let hop = 1024;
     let mut g = c.benchmark_group("front_end_per_hop_48k");
     g.throughput(Throughput::Elements(hop as u64));
-    let guard = InputGuard::for_decimation(LocatorConfig::default().clip_level, 4);
+    let guard = InputGuard::for_decimation(LocatorConfig::default().front_end.clip_level, 4);
     let mut fe = FrontEnd::new(Decimator::for_rate(48_000).expect("supported"), guard);
     let mut pos = 0;
     g.bench_function("default", |b| {

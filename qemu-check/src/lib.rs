@@ -104,7 +104,7 @@ pub fn check_config(variant: usize) -> Option<cma_core::LocatorConfig> {
     let mut c = cma_core::LocatorConfig::default();
     match variant {
         0 => {}
-        1 => c.features = cma_core::features::FeatureKind::Active,
+        1 => c.curves.features = cma_core::features::FeatureKind::Active,
         2 => c = cma_core::LocatorConfig::thesis(),
         3 => c = multi_talker_config(),
         _ => return None,

@@ -119,10 +119,13 @@ impl Bench {
             distance: [0.0; MAX_AZIMUTHS],
             curve_sum: 0.0,
             filter: CurveFilter::new(),
-            front: FrontEnd::new(dec, InputGuard::for_decimation(c.clip_level, dec.factor())),
-            picker: PeakPicker::from_config(&c, fs),
+            front: FrontEnd::new(
+                dec,
+                InputGuard::for_decimation(c.front_end.clip_level, dec.factor()),
+            ),
+            picker: PeakPicker::from_config(&c.peaks, fs),
             row_cache: RowCache::new(),
-            curves: CurveBuilder::from_config(&c).expect("default SNR sets are valid"),
+            curves: CurveBuilder::from_config(&c.curves).expect("default SNR sets are valid"),
             table: ReferenceTable::ideal_5deg(),
         });
         let mut scene = Scene::at_rate(FIRMWARE_RATE_HZ);

@@ -248,11 +248,11 @@ fn reference_setup(
     reference: Reference,
     features: FeatureKind,
 ) -> (LocatorConfig, ReferenceTable<'_>) {
-    let config = LocatorConfig {
-        features,
+    let mut config = LocatorConfig {
         capsule_calibration: cma_core::capsule_calibration::CapsuleCalibration::OFF,
         ..LocatorConfig::default()
     };
+    config.curves.features = features;
     let table = match reference {
         Reference::IdealTable => ReferenceTable::ideal_5deg(),
         Reference::MeasuredTable => fx.measured(array).as_table().unwrap(),

@@ -100,7 +100,7 @@ fn bad_samples_are_flagged_with_zero_confidence() {
     assert!(out.iter().all(|e| e.flags.contains(Flags::CLIPPED)));
     assert!(out
         .iter()
-        .all(|e| e.confidence <= LocatorConfig::default().clipped_confidence));
+        .all(|e| e.confidence <= LocatorConfig::default().front_end.clipped_confidence));
 }
 
 #[test]

@@ -102,14 +102,14 @@ impl OptionArgs {
             c.quality.binary_threshold = v;
         }
         if let Some(v) = self.combination {
-            c.combination = match v {
+            c.alternative.combination = match v {
                 CombinationArg::MeanCurve => Combination::MeanCurve,
                 CombinationArg::PeakMean => Combination::PeakCircularMean,
                 CombinationArg::PeakMedian => Combination::PeakCircularMedian,
             };
         }
         if let Some(v) = self.smoothing {
-            c.smoothing = match v {
+            c.alternative.smoothing = match v {
                 SmoothingArg::Curve => Smoothing::Curve,
                 SmoothingArg::Cartesian => Smoothing::Cartesian,
             };
@@ -120,12 +120,12 @@ impl OptionArgs {
                     "--fdiv-std: expected degrees ≥ 0, got {v}"
                 )));
             }
-            c.fdiv_spread = FdivSpread {
+            c.intensity.fdiv_spread = FdivSpread {
                 max_std_deg: v,
                 binary: self.fdiv_std_binary,
             };
         } else if self.fdiv_std_binary {
-            c.fdiv_spread.binary = true;
+            c.intensity.fdiv_spread.binary = true;
         }
         Ok(())
     }
@@ -254,12 +254,16 @@ mod tests {
         assert!(!c.quality.measures.frame_power);
         assert_eq!(c.quality.binary_threshold, 0.4);
         assert_eq!(c.quality.power_max, 0.5);
-        assert_eq!(c.combination, Combination::PeakCircularMedian);
-        assert_eq!(c.smoothing, Smoothing::Cartesian);
-        assert!(c.fdiv_spread.enabled() && c.fdiv_spread.binary);
+        assert_eq!(c.alternative.combination, Combination::PeakCircularMedian);
+        assert_eq!(c.alternative.smoothing, Smoothing::Cartesian);
+        assert!(c.intensity.fdiv_spread.enabled() && c.intensity.fdiv_spread.binary);
         let (c, _) = variant_config(&[], "--snr-from=-10 --snr-to 30 --snr-step 5").unwrap();
         assert_eq!(
-            (c.snr_from_db, c.snr_to_db, c.snr_step_db),
+            (
+                c.curves.snr_from_db,
+                c.curves.snr_to_db,
+                c.curves.snr_step_db
+            ),
             (-10.0, 30.0, 5.0)
         );
         for (flag, want) in [

@@ -359,37 +359,37 @@ impl ConfigArgs {
             };
         }
         if let Some(v) = self.peaks {
-            c.num_peaks = v;
+            c.peaks.num_peaks = v;
         }
         if let Some(v) = self.band_lo {
-            c.band_lo_hz = v;
+            c.peaks.band_lo_hz = v;
         }
         if let Some(v) = self.band_hi {
-            c.band_hi_hz = v;
+            c.peaks.band_hi_hz = v;
         }
         if let Some(m) = &self.measure {
-            c.measure = parse_measure(m)?;
+            c.curves.measure = parse_measure(m)?;
         }
         c.kernel = self.kernel(c.kernel)?;
         if let Some(n) = self.noise {
-            c.noise_mixing = match n {
+            c.curves.noise_mixing = match n {
                 NoiseArg::Off => NoiseMixing::Off,
                 NoiseArg::Magnitude => NoiseMixing::Magnitude,
                 NoiseArg::Power => NoiseMixing::Power,
             };
         }
         if let Some(v) = self.snr_from {
-            c.snr_from_db = v;
+            c.curves.snr_from_db = v;
         }
         if let Some(v) = self.snr_to {
-            c.snr_to_db = v;
+            c.curves.snr_to_db = v;
         }
         if let Some(v) = self.snr_step {
-            c.snr_step_db = v;
+            c.curves.snr_step_db = v;
         }
-        c.mean_free |= self.mean_free;
+        c.curves.mean_free |= self.mean_free;
         if let Some(f) = self.features {
-            c.features = match f {
+            c.curves.features = match f {
                 FeaturesArg::Magnitude => cma_core::features::FeatureKind::Magnitude,
                 FeaturesArg::Active => cma_core::features::FeatureKind::Active,
             };
@@ -492,13 +492,13 @@ impl ConfigArgs {
             c.direct_sound.onset_exponent = v;
         }
         if let Some(v) = self.peak_threshold {
-            c.peak_threshold = v;
+            c.peaks.peak_threshold = v;
         }
         if let Some(v) = self.fdiv_pole {
-            c.fdiv_pole = v;
+            c.intensity.fdiv_pole = v;
         }
         if let Some(v) = self.tdiv_pole {
-            c.tdiv_pole = v;
+            c.intensity.tdiv_pole = v;
         }
         self.options.apply(&mut c)?;
         check_flags(&before_flags, &c)?;

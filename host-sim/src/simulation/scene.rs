@@ -220,7 +220,7 @@ impl TalkerRoom {
 
     /// Length of the responses, samples.
     #[must_use]
-    pub fn len(&self) -> usize {
+    pub fn response_len(&self) -> usize {
         match self {
             Self::Rotated(r) => r.w.len(),
             Self::ShoeBox(t) => ((t.length_s * f64::from(t.rate)) as usize).max(1),
@@ -566,7 +566,7 @@ pub fn proximity_filter(x: &[f64], rate: u32, distance_m: f64) -> Vec<f64> {
 pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> SceneParts {
     let rate = spec.rate as f64;
     let lead = (spec.lead_in_s * rate).round() as usize;
-    let tail = spec.room.as_ref().map_or(0, TalkerRoom::len);
+    let tail = spec.room.as_ref().map_or(0, TalkerRoom::response_len);
     let total = lead + spec.source.len() + tail.min((0.3 * rate) as usize);
     let [w, mut x, mut y] = render_talker(spec, total, lead);
     if let Some(r) = near_field_m.filter(|r| *r > 0.0 && r.is_finite()) {

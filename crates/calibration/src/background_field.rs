@@ -1,0 +1,484 @@
+//! The stationary background field: what the room's steady sound — diffuse noise, a fan, a
+//! projector, an air vent, mains hum — is, measured per frequency band, for the installer's
+//! noise-field report ([`BackgroundFieldState::band_summary`]: the wire's background line, `host-sim
+//! monitor` and `locate`).
+//!
+//! # Estimate
+//! Per band ([`BG_BANDS`]: below and above [`BG_BAND_EDGES_HZ`]): the band's omni power, its floor
+//! (the minimum, rising at most [`BackgroundField::rise_db_per_s`]), and in frames where the band is
+//! within [`BackgroundField::background_db`] of its floor ("background") the sums of Re(X_c·X_0*)
+//! over its peaks with the cardioids as the similarity sees them (after the self-calibration's
+//! correction), relative to Σ|X_0|²: the active ratios. Each such frame's ratios join a running
+//! mean over about [`BackgroundField::memory_frames`] background frames. A diffuse background gives
+//! ½ for every cardioid; a source from θ alone 0.5 + 0.5·cos(θ − φ_c); a source in diffuse noise lies
+//! between, and the zero-mean part of the three ratios points at the source.
+//!
+//! # Not a front end of the similarity (measured)
+//! With the active ratios a talker of power S and an uncorrelated background of power N with
+//! ratios Y_b give, in expectation, α·Y(θ) + (1 − α)·Y_b (α = S/(S + N)), so the noisy references
+//! (thesis §5.1.5) could mix toward the measured Y_b instead of the diffuse ½, and a peak of the
+//! source alone would vote for no azimuth. Built and measured on `scripts/validate`'s noise kinds
+//! (a fan, projector, vent or hum 16–22 or 6–12 dB below the talker; ideal and imperfect arrays):
+//! on ideal arrays it changed little (within about a point of ACC10, self-calibration on or off:
+//! these scenes lose mostly to the settling after each change of the talker's place); it paid on
+//! imperfect arrays with the self-calibration off (full suite 64.4 → 78.2 % and 65.6 → 73.2 %), and
+//! not with it on (−0.6 to −1.5 points), the default. It cost a second row cache (RAM) and flash the
+//! F411 image does not have, so it is not part of the product (CHANGELOG).
+//!
+//! State: per band a floor, 4 running values and a count (≈ 0.1 KB in all). Work per hop: a sum
+//! over the analysis band's omni powers, and on background bands four multiply–adds per peak.
+
+use crate::band_floors::BandFloors;
+use crate::features::Feature;
+use crate::{CARDIOIDS, NUM_BINS};
+use microfft::Complex32;
+
+/// Number of frequency bands with their own background feature.
+pub const BG_BANDS: usize = 2;
+
+/// Upper edges of the bands, Hz (the last band runs to Nyquist).
+pub const BG_BAND_EDGES_HZ: [f32; BG_BANDS - 1] = [1000.0];
+
+/// Settings of the background field.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct BackgroundField {
+    /// Whether the stage measures the background.
+    pub enabled: bool,
+    /// A band of a frame is background when its omni power is at most this many dB above the
+    /// band's floor.
+    pub background_db: f32,
+    /// Largest rise of a band's floor, dB per second (how soon a source switched on counts as
+    /// background).
+    pub rise_db_per_s: f32,
+    /// Memory of the running mean, in background frames.
+    pub memory_frames: f32,
+}
+
+impl BackgroundField {
+    /// The stage off: nothing measured.
+    pub const OFF: Self = Self {
+        enabled: false,
+        background_db: 3.0,
+        rise_db_per_s: 2.0,
+        memory_frames: 100.0,
+    };
+
+    /// The product's setting: measured.
+    pub const DEFAULT: Self = Self {
+        enabled: true,
+        ..Self::OFF
+    };
+
+    /// Whether the settings are usable: finite, background dB ≥ 0, rise ≥ 0, memory ≥ 1 frame.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.background_db >= 0.0
+            && self.background_db.is_finite()
+            && self.rise_db_per_s >= 0.0
+            && self.rise_db_per_s.is_finite()
+            && self.memory_frames >= 1.0
+            && self.memory_frames.is_finite()
+    }
+}
+
+/// One band's running means of Re(X_c·X_0*)/|X_0|², and their evidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BandMeans {
+    active: Feature,
+    /// Background frames seen (saturating at the memory).
+    n: f32,
+}
+
+/// This frame's sums of one band.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FrameSums {
+    xw: Feature,
+    ww: f32,
+}
+
+impl FrameSums {
+    const ZERO: Self = Self {
+        xw: [0.0; CARDIOIDS],
+        ww: 0.0,
+    };
+}
+
+/// The stage's state: per band the floor, whether this frame is background, and the means.
+#[derive(Debug, Clone, Copy)]
+pub struct BackgroundFieldState {
+    settings: BackgroundField,
+    /// Each band's power, floor and whether it is background in this frame.
+    bands: BandFloors<BG_BANDS>,
+    frame: [FrameSums; BG_BANDS],
+    means: [BandMeans; BG_BANDS],
+    pole: f32,
+}
+
+impl BackgroundFieldState {
+    /// An idle state (the stage off).
+    #[must_use]
+    pub const fn idle() -> Self {
+        Self {
+            settings: BackgroundField::OFF,
+            bands: BandFloors::idle(),
+            frame: [FrameSums::ZERO; BG_BANDS],
+            means: [BandMeans {
+                active: [0.5; CARDIOIDS],
+                n: 0.0,
+            }; BG_BANDS],
+            pole: 1.0,
+        }
+    }
+
+    /// Makes this state a fresh one for `settings` at analysis rate `fs` Hz (`frames_per_s`
+    /// analysis frames per second), in place.
+    pub fn reset(&mut self, settings: BackgroundField, fs: f32, frames_per_s: f32) {
+        *self = Self::idle();
+        self.settings = settings;
+        self.bands = BandFloors::new(
+            &BG_BAND_EDGES_HZ,
+            fs,
+            frames_per_s,
+            settings.rise_db_per_s,
+            settings.background_db,
+        );
+        self.pole = 1.0 / settings.memory_frames;
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn settings(&self) -> &BackgroundField {
+        &self.settings
+    }
+
+    /// Starts a frame from the omni powers of the bins `lo..=hi` (the analysis band): each band's
+    /// power, floor and whether it is background (never when not `clean`).
+    pub fn begin_frame(&mut self, omni_power: &[f32; NUM_BINS], lo: usize, hi: usize, clean: bool) {
+        self.bands.begin_frame(omni_power, lo, hi, clean);
+        self.frame = [FrameSums::ZERO; BG_BANDS];
+    }
+
+    /// Adds a peak (bin `k`, omni `w`, cardioids `x` as the similarity sees them) to its band's
+    /// sums when the band is background in this frame.
+    #[inline]
+    pub fn add_peak(&mut self, k: usize, w: Complex32, x: &[Complex32; CARDIOIDS]) {
+        let band = self.bands.band_of_bin(k);
+        if !self.bands.is_background(band) {
+            return;
+        }
+        let s = &mut self.frame[band];
+        s.ww += w.re * w.re + w.im * w.im;
+        for m in 0..CARDIOIDS {
+            s.xw[m] += x[m].re * w.re + x[m].im * w.im;
+        }
+    }
+
+    /// Ends a frame: each background band's ratios join its running means.
+    pub fn end_frame(&mut self) {
+        let cap = self.settings.memory_frames;
+        for (m, s) in self.means.iter_mut().zip(&self.frame) {
+            if !(s.ww > 0.0) || !s.ww.is_finite() {
+                continue;
+            }
+            let inv = 1.0 / s.ww;
+            let active = s.xw.map(|v| v * inv);
+            if !active.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            // The first frames average equally (1/n), then the memory takes over.
+            m.n = if m.n + 1.0 < cap { m.n + 1.0 } else { cap };
+            let g = if 1.0 / m.n > self.pole {
+                1.0 / m.n
+            } else {
+                self.pole
+            };
+            for c in 0..CARDIOIDS {
+                m.active[c] += g * (active[c] - m.active[c]);
+            }
+        }
+    }
+}
+
+/// Directivity above which a band's background is shown with a direction (a source dominates);
+/// at or below it the background is shown as diffuse ([`BackgroundBand::is_directional`]). A plane
+/// wave mixed with diffuse noise of equal power measures about 0.5, of 4× its power about 0.2.
+pub const DIRECTIONAL_MIN: f32 = 0.3;
+
+/// Σ w(n)² of the analysis window (the symmetric Hamming window of [`crate::FRAME_LEN`] = 512
+/// samples: 512·0.54² − 2·0.54·0.46·1 + 0.46²·256.5 = 203.0778).
+const WINDOW_POWER_SUM: f32 = 203.0778;
+
+/// Factor from a band's summed omni bin power Σ|X_k|² (the unnormalised FFT of the windowed frame,
+/// samples at full scale ±1) to the band's mean-square power: 2/(N·Σw²) by Parseval (each bin
+/// stands for itself and its mirror).
+const BIN_POWER_TO_MEAN_SQUARE: f32 = 2.0 / (crate::FRAME_LEN as f32 * WINDOW_POWER_SUM);
+
+/// Norm of the zero-mean part of a plane wave's active ratios on the ideal array:
+/// ½·√(Σ_c cos²(θ − φ_c)) = ½·√(3/2), whatever θ.
+const PLANE_WAVE_NORM: f32 = 0.612_372_4;
+
+/// One band's stationary background as an installer reads it: where its net intensity comes from,
+/// how directional it is, how loud, and on how many frames that rests
+/// ([`BackgroundFieldState::band_summary`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BackgroundBand {
+    /// Direction of the background's net intensity, degrees in (−180, 180], counter-clockwise
+    /// from cardioid 1 like the estimates: atan2(y, x) of x = Σ_c z_c·cos φ_c,
+    /// y = Σ_c z_c·sin φ_c, where z is the band's mean active ratios minus their mean and
+    /// φ_c = 0°, 120°, 240° the cardioids' looks. Meaningless when the directivity is near 0.
+    pub direction_deg: f32,
+    /// Norm of z relative to a plane wave's (½·√(3/2) ≈ 0.612), clamped to [0, 1]: 1 a single
+    /// source (plane wave), 0 diffuse (ideal array: z = 0), between a source in diffuse noise.
+    pub directivity: f32,
+    /// The band's background level: 10·log10 of its omni power floor, as a mean-square power
+    /// relative to full scale (a signal of mean square 1, samples in ±1; a full-scale sine is
+    /// −3 dB) — the floor of Σ|X_k|² over the band's bins within the analysis band, converted by
+    /// Parseval (2/(N·Σw²)) so that it compares with the estimates' `power` (mean-square omni power
+    /// of the frame, all frequencies).
+    pub level_db: f32,
+    /// Background frames the means rest on (saturates at [`BackgroundField::memory_frames`]).
+    pub frames: f32,
+}
+
+impl BackgroundBand {
+    /// Whether a source dominates the band: directivity above [`DIRECTIONAL_MIN`].
+    #[must_use]
+    pub fn is_directional(&self) -> bool {
+        self.directivity > DIRECTIONAL_MIN
+    }
+}
+
+/// Direction (degrees) and directivity of mean active ratios `y` of the cardioids looking at 0°,
+/// 120°, 240° ([`BackgroundBand`]).
+#[must_use]
+pub fn background_direction(y: &Feature) -> (f32, f32) {
+    const COS: [f32; CARDIOIDS] = [1.0, -0.5, -0.5];
+    const SIN: [f32; CARDIOIDS] = [0.0, 0.866_025_4, -0.866_025_4];
+    let mean = (y[0] + y[1] + y[2]) * (1.0 / 3.0);
+    let (mut x, mut yy, mut norm2) = (0.0f32, 0.0f32, 0.0f32);
+    for c in 0..CARDIOIDS {
+        let z = y[c] - mean;
+        x += z * COS[c];
+        yy += z * SIN[c];
+        norm2 += z * z;
+    }
+    let directivity = crate::fast_math::sqrtf(norm2) * (1.0 / PLANE_WAVE_NORM);
+    let directivity = if directivity < 1.0 { directivity } else { 1.0 };
+    let direction = if norm2 > 0.0 {
+        libm::atan2f(yy, x).to_degrees()
+    } else {
+        0.0
+    };
+    (
+        if direction <= -180.0 {
+            180.0
+        } else {
+            direction
+        },
+        if directivity.is_finite() {
+            directivity
+        } else {
+            0.0
+        },
+    )
+}
+
+/// 10·log10(`p`) for a positive normal `p`, within 10⁻³ dB: the exponent from the bits and
+/// ln of the mantissa m ∈ [1, 2) by 2·atanh((m − 1)/(m + 1)) to the 7th power (a display's
+/// level; `libm::log10f` costs ≈ 0.2 KB more of Cortex-M4F flash).
+fn power_db(p: f32) -> f32 {
+    let bits = p.to_bits();
+    let e = ((bits >> 23) & 0xFF) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007F_FFFF) | 0x3F80_0000);
+    let t = (m - 1.0) / (m + 1.0);
+    let t2 = t * t;
+    let ln_m = 2.0 * t * (1.0 + t2 * (1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (1.0 / 7.0))));
+    // 10·log10(2) and 10·log10(e).
+    3.010_3 * e as f32 + 4.342_944_8 * ln_m
+}
+
+impl BackgroundFieldState {
+    /// Band `band`'s background ([`BackgroundBand`]) from its running means and floor; `None`
+    /// without evidence (the stage off, no background frame yet, or no such band). Read-only:
+    /// reading it changes nothing.
+    #[must_use]
+    pub fn band_summary(&self, band: usize) -> Option<BackgroundBand> {
+        let m = self.means.get(band)?;
+        let floor = self.bands.floor.get(band)?.floor();
+        if !(m.n > 0.0) || !(floor > 0.0) || !floor.is_finite() {
+            return None;
+        }
+        let (direction_deg, directivity) = background_direction(&m.active);
+        Some(BackgroundBand {
+            direction_deg,
+            directivity,
+            level_db: power_db(floor * BIN_POWER_TO_MEAN_SQUARE),
+            frames: m.n,
+        })
+    }
+
+    /// Every band's [`BackgroundFieldState::band_summary`], lowest band first.
+    #[must_use]
+    pub fn summary(&self) -> [Option<BackgroundBand>; BG_BANDS] {
+        core::array::from_fn(|b| self.band_summary(b))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::Lcg;
+
+    const FS: f32 = 12_000.0;
+
+    /// Omni and cardioids of a plane wave from `az` degrees with amplitude `a`.
+    fn wave(az: f32, a: Complex32) -> (Complex32, [Complex32; CARDIOIDS]) {
+        let c = [0.0f32, 120.0, 240.0].map(|l| a * (0.5 + 0.5 * libm::cosf((az - l).to_radians())));
+        (a, c)
+    }
+
+    fn state() -> BackgroundFieldState {
+        let mut s = BackgroundFieldState::idle();
+        s.reset(BackgroundField::DEFAULT, FS, FS / crate::HOP as f32);
+        s
+    }
+
+    /// A directional source alone: every band learns its active ratios, the ideal cardioid's value
+    /// at its azimuth, and points at it; louder frames (a talker) are not learned from.
+    #[test]
+    fn a_directional_background_measures_its_own_feature() {
+        let mut s = state();
+        let mut rng = Lcg(3);
+        let bins = [15usize, 30, 60, 120];
+        for frame in 0..300 {
+            let loud = frame % 5 == 0;
+            let mut power = [0.0f32; NUM_BINS];
+            let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 4];
+            for (i, &k) in bins.iter().enumerate() {
+                // Random phase, amplitude 0.5–1.
+                let (ph, r) = (core::f32::consts::TAU * rng.unit(), 0.5 + 0.5 * rng.unit());
+                let a = Complex32::new(r * libm::cosf(ph), r * libm::sinf(ph));
+                let (w, x) = if loud {
+                    let (w1, x1) = wave(170.0, a * 10.0);
+                    let (w2, x2) = wave(40.0, a);
+                    (w1 + w2, [x1[0] + x2[0], x1[1] + x2[1], x1[2] + x2[2]])
+                } else {
+                    wave(40.0, a)
+                };
+                power[k] = w.norm_sqr();
+                peaks[i] = (w, x);
+            }
+            // A steady floor under the peaks.
+            for (k, p) in power.iter_mut().enumerate() {
+                if *p == 0.0 && (10..=300).contains(&k) {
+                    *p = 0.01;
+                }
+            }
+            s.begin_frame(&power, 10, 300, true);
+            for (&k, (w, x)) in bins.iter().zip(&peaks) {
+                s.add_peak(k, *w, x);
+            }
+            s.end_frame();
+        }
+        let (_, want) = wave(40.0, Complex32::new(1.0, 0.0));
+        for band in 0..BG_BANDS {
+            let y = s.means[band].active;
+            for c in 0..3 {
+                assert!(
+                    (y[c] - want[c].re).abs() < 0.03,
+                    "band {band} c {c}: {y:?} vs {want:?}"
+                );
+            }
+            let b = s.band_summary(band).unwrap();
+            assert!((b.direction_deg - 40.0).abs() < 3.0, "{b:?}");
+        }
+    }
+
+    /// Before any background frame there is no summary; NaN input is never learned.
+    #[test]
+    fn without_evidence_there_is_no_summary() {
+        let mut s = state();
+        assert_eq!(s.band_summary(0), None);
+        let power = [f32::NAN; NUM_BINS];
+        s.begin_frame(&power, 10, 300, true);
+        let nan = Complex32::new(f32::NAN, 0.0);
+        s.add_peak(20, nan, &[nan; 3]);
+        s.end_frame();
+        assert_eq!(s.summary(), [None; BG_BANDS]);
+        assert!(BackgroundField::DEFAULT.is_valid());
+        assert!(!BackgroundField {
+            memory_frames: 0.5,
+            ..BackgroundField::DEFAULT
+        }
+        .is_valid());
+    }
+
+    /// The summary of a plane-wave background points at its source with directivity 1; diffuse
+    /// means (½ each) have directivity 0; a mix lies between.
+    #[test]
+    fn the_summary_points_at_a_plane_wave_and_calls_diffuse_diffuse() {
+        for az in [40.0f32, -150.0, 180.0, 0.0] {
+            let (_, x) = wave(az, Complex32::new(1.0, 0.0));
+            let (dir, d) = background_direction(&x.map(|c| c.re));
+            let err = libm::fmodf(dir - az + 540.0, 360.0) - 180.0;
+            assert!(err.abs() < 0.01, "{az}: {dir}");
+            assert!((d - 1.0).abs() < 1e-4, "{az}: {d}");
+        }
+        let (_, d) = background_direction(&[0.5; 3]);
+        assert!(d.abs() < 1e-6);
+        // Equal powers of a source from 40° and of diffuse noise: halfway.
+        let (_, x) = wave(40.0, Complex32::new(1.0, 0.0));
+        let (dir, d) = background_direction(&x.map(|c| 0.5 * c.re + 0.25));
+        assert!(
+            (dir - 40.0).abs() < 0.01 && (d - 0.5).abs() < 1e-3,
+            "{dir} {d}"
+        );
+        // A learned state: the test background from 40°.
+        let mut s = state();
+        assert_eq!(s.band_summary(0), None);
+        let mut rng = Lcg(5);
+        for _ in 0..200 {
+            let mut power = [0.0f32; NUM_BINS];
+            let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 2];
+            for (i, &k) in [20usize, 100].iter().enumerate() {
+                let ph = core::f32::consts::TAU * rng.unit();
+                let (w, x) = wave(40.0, Complex32::new(libm::cosf(ph), libm::sinf(ph)));
+                power[k] = w.norm_sqr();
+                peaks[i] = (w, x);
+            }
+            s.begin_frame(&power, 10, 300, true);
+            for (&k, (w, x)) in [20usize, 100].iter().zip(&peaks) {
+                s.add_peak(k, *w, x);
+            }
+            s.end_frame();
+        }
+        for b in s.summary() {
+            let b = b.expect("evidence in both bands");
+            assert!((b.direction_deg - 40.0).abs() < 0.5, "{b:?}");
+            assert!(b.directivity > 0.99 && b.is_directional(), "{b:?}");
+            assert_eq!(b.frames, 100.0);
+            // One bin of power 1: 2/(512·203.08) ≈ −47.16 dB re full-scale mean square.
+            assert!((b.level_db + 47.16).abs() < 0.05, "{b:?}");
+        }
+    }
+
+    /// The level's logarithm agrees with `log10f` over the range of band powers.
+    #[test]
+    fn power_db_agrees_with_log10() {
+        let mut p = 1e-30f32;
+        while p < 1e30 {
+            let want = 10.0 * f64::from(p).log10();
+            assert!((f64::from(power_db(p)) - want).abs() < 1e-3, "{p}");
+            p *= 1.37;
+        }
+    }
+
+    /// The window constant is the analysis window's Σw².
+    #[test]
+    fn window_power_sum_is_the_hamming_windows() {
+        let sum: f32 = crate::tables::HAMMING_512.iter().map(|w| w * w).sum();
+        assert!((sum - WINDOW_POWER_SUM).abs() < 2e-3, "{sum}");
+    }
+}
