@@ -63,7 +63,8 @@ const QUEUE_LEN: usize = if MULTI_TALKER { 8 } else { 4 };
 /// feature.
 const MULTI_TALKER: bool = cfg!(feature = "multi-talker");
 /// Whether the board measures the stationary background and sends its background lines (the
-/// `noise-field` feature; without it the image leaves both out, ≈ 3 KB of flash).
+/// `noise-field` feature, on for every board; without it the image leaves both out, ≈ 4 KB of
+/// flash).
 const NOISE_FIELD: bool = cfg!(feature = "noise-field");
 
 /// What the DSP task hands to the UART task: raw values, formatted there.
