@@ -88,13 +88,18 @@ fn qemu_firmware_to_monitor() {
         err.contains("frames=300 corrupt_lines=0 lost_frames=0"),
         "{err}"
     );
-    // The demo's talker circles at 20°/s from 0°: the recorded azimuths follow it.
+    // The demo's talker circles at 20°/s from 0°: the recorded azimuths follow it (the tracker's
+    // lag behind a moving talker is a few degrees; what the chain could break — lines lost, fields
+    // swapped or garbled — gives errors of tens of degrees).
     let rows = host_sim::localization::frame_estimates::read_csv(&rec).unwrap();
     assert_eq!(rows.len(), 300);
-    let worst = rows
+    let mut errors: Vec<f64> = rows
         .iter()
         .map(|r| host_sim::io::ground_truth::wrap180(r.azimuth_deg - 20.0 * r.t_s).abs())
-        .fold(0.0, f64::max);
-    eprintln!("qemu chain: 300 frames, worst azimuth error {worst:.1}°");
-    assert!(worst < 5.0, "worst azimuth error {worst}°");
+        .collect();
+    errors.sort_by(f64::total_cmp);
+    let (median, worst) = (errors[errors.len() / 2], errors[errors.len() - 1]);
+    eprintln!("qemu chain: 300 frames, median azimuth error {median:.1}°, worst {worst:.1}°");
+    assert!(median < 3.0, "median azimuth error {median}°");
+    assert!(worst < 10.0, "worst azimuth error {worst}°");
 }
