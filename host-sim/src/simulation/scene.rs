@@ -631,3 +631,49 @@ pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> ScenePar
         active_s: (active.0 as f64 / rate, active.1 as f64 / rate),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulation::room::ShoeBox;
+
+    /// Each place of a talker in a shoebox has its own reflections: the response at 90° is not the
+    /// response at 0° turned by 90° (the room does not turn with the talker), while its direct sound
+    /// comes from 90°.
+    #[test]
+    fn each_place_in_a_shoebox_has_its_own_reflections() {
+        let room = ShoeBox::parse("5x4x3:0.4").unwrap();
+        let talker = TalkerRoom::ShoeBox(ShoeBoxTalker {
+            room,
+            array: room.array_position(3),
+            elevation_deg: 0.0,
+            distance_m: 1.5,
+            length_s: 0.3,
+            rate: 16_000,
+        });
+        let at0 = talker.response(0.0);
+        let at90 = talker.response(90.0);
+        assert!((at0.direct_deg - 0.0).abs() < 1e-9);
+        assert!((at90.direct_deg - 90.0).abs() < 1e-9);
+        assert_eq!(talker.response_len(), at0.parts().0.len());
+        // Turned back to 0°, the 90° response would equal the 0° one if the room turned with the
+        // talker; its reflections (after the first 5 ms) differ by a large part of their energy.
+        let [w0, x0, y0] = at0.rotated(0.0);
+        let [w9, x9, y9] = at90.rotated(0.0);
+        let late = (0.005 * 16_000.0) as usize + (1.5 / 343.0 * 16_000.0) as usize;
+        let energy = |v: &[f64]| v[late..].iter().map(|s| s * s).sum::<f64>();
+        let diff = |a: &[f64], b: &[f64]| {
+            a[late..]
+                .iter()
+                .zip(&b[late..])
+                .map(|(p, q)| (p - q) * (p - q))
+                .sum::<f64>()
+        };
+        let total = energy(&w0) + energy(&x0) + energy(&y0);
+        let changed = diff(&w0, &w9) + diff(&x0, &x9) + diff(&y0, &y9);
+        assert!(changed > 0.2 * total, "changed {changed} of {total}");
+        // A measured response is one place only: it is turned.
+        let turned = TalkerRoom::Rotated(at0.clone());
+        assert_eq!(turned.response(90.0).rotated(90.0), at0.rotated(90.0));
+    }
+}
