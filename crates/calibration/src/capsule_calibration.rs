@@ -57,6 +57,13 @@
 //! is kept as it was (no drift toward the noise source). Speech frames are never used, so a
 //! talker, static or moving, cannot pull the estimate.
 //!
+//! A directional source that runs all the time (a fan, a projector, a loudspeaker) leaves the
+//! cross-powers anisotropic for good, and holding would then never learn. Its net intensity moves
+//! the omni parts' estimate as capsule errors would, but not the dipole parts': so the omni parts'
+//! spread across the cardioids is applied only up to [`CapsuleCalibration::max_omni_spread`] times
+//! the dipole parts' spread, which a real capsule's gain and pattern errors give both alike (see
+//! [`bound_omni_spread`]). An ideal array then stays ideal beside a noise source.
+//!
 //! # Confidence
 //! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
 //! falls as 1/√n. Its deviations from the ideal capsule are applied only in so far as they clear
@@ -128,6 +135,10 @@ pub struct CapsuleCalibration {
     /// Largest deviation of a normalised cross-power from −½ for which the background counts as
     /// diffuse.
     pub max_anisotropy: f32,
+    /// Largest spread of the omni parts across the three cardioids (the size of their deviations
+    /// about their mean) relative to the dipole parts' spread, in the estimate; a larger omni
+    /// spread is applied scaled down to it (0: no bound). See [`bound_omni_spread`].
+    pub max_omni_spread: f32,
 }
 
 impl CapsuleCalibration {
@@ -140,6 +151,7 @@ impl CapsuleCalibration {
         memory_frames: 10_000.0,
         shrinkage: 0.14,
         max_anisotropy: 0.05,
+        max_omni_spread: 8.0,
     };
 
     /// The product's settings.
@@ -159,6 +171,8 @@ impl CapsuleCalibration {
             && self.shrinkage >= 0.0
             && self.max_anisotropy.is_finite()
             && self.max_anisotropy > 0.0
+            && self.max_omni_spread.is_finite()
+            && self.max_omni_spread >= 0.0
     }
 }
 
@@ -622,7 +636,12 @@ impl Correction {
     /// scenes, band rests of the omni parts cost an ideal array 0.15° after a cold start and gained
     /// an imperfect one nothing, frequency-dependent patterns included). Without evidence in any
     /// band every correction is the identity.
-    fn of_bands(out: &mut [Self; CAL_BANDS], models: &[BandModel; CAL_BANDS], shrinkage: f32) {
+    fn of_bands(
+        out: &mut [Self; CAL_BANDS],
+        models: &[BandModel; CAL_BANDS],
+        shrinkage: f32,
+        max_omni_spread: f32,
+    ) {
         // The evidence-weighted mean model (the deviations are linear in the parts).
         let mut mean = BandModel {
             omni_part: [0.0; CARDIOIDS],
@@ -641,6 +660,9 @@ impl Correction {
         }
         let mut shared = [[0.0; CARDIOIDS]; 2];
         add_shrunk_deviations(&mean, shrinkage, &mut shared);
+        if max_omni_spread > 0.0 {
+            bound_omni_spread(&mut shared[0], &mean, max_omni_spread);
+        }
         for (c, m) in out.iter_mut().zip(models) {
             *c = Self::of_band(m, &mean, &shared, shrinkage);
         }
@@ -677,6 +699,39 @@ impl Correction {
             c.c0[m] = 0.5 - am * half_inv;
         }
         c
+    }
+}
+
+/// Scales the omni parts' applied deviations about their mean, `omni`, down so that the estimate's
+/// omni parts spread at most `ratio` times as much across the cardioids as its dipole parts
+/// (`model`: the estimate before shrinkage; spread: the size of the deviations about their mean).
+///
+/// A capsule's omni and dipole parts come from the same gain and pattern, a = g(1 − β) and
+/// b = g·β: a gain error moves both alike, a pattern error moves them oppositely, so across the
+/// three cardioids the omni parts spread about as much as the dipole parts. What else moves the
+/// omni parts' estimate is the field: a directional source in the background (a fan, a projector,
+/// a loudspeaker) gives it a net intensity, which the diffuse-field assumption of the omni parts
+/// takes for capsule errors. The dipole parts are measured without that assumption (the
+/// regression of W on the cardioids holds in any field), so they bound the omni parts: on an
+/// ideal array, whose dipole parts spread only by their sampling noise, the omni parts stay
+/// nearly ideal whatever the background (validation scenes with a white-noise loudspeaker 10 dB
+/// below the talker: ACC10 as with the self-calibration off, instead of a correction toward the
+/// loudspeaker). The spreads are compared before shrinkage, so the bound does not tighten while
+/// the evidence is young. What it costs: capsules whose gain and pattern errors happen to cancel
+/// in the dipole parts (g·β near ½ with β off ½) keep only part of their omni correction.
+fn bound_omni_spread(omni: &mut [f32; CARDIOIDS], model: &BandModel, ratio: f32) {
+    let spread = |v: [f32; CARDIOIDS]| {
+        let z = zero_mean(v);
+        z[0] * z[0] + z[1] * z[1] + z[2] * z[2]
+    };
+    let (sa, sb) = (spread(model.omni_part), spread(model.dipole_part));
+    let limit = ratio * ratio * sb;
+    if sa > limit && sa > 0.0 {
+        let f = crate::fast_math::sqrtf(limit / sa);
+        let mean = (omni[0] + omni[1] + omni[2]) / 3.0;
+        for v in omni.iter_mut() {
+            *v = mean + f * (*v - mean);
+        }
     }
 }
 
@@ -846,6 +901,7 @@ impl CapsuleCalibrationState {
             &mut self.correction,
             &self.accepted.bands,
             self.settings.shrinkage,
+            self.settings.max_omni_spread,
         );
     }
 
@@ -1326,7 +1382,7 @@ mod tests {
         }; CAL_BANDS];
         models[0].peaks = 30.0;
         let mut c = [Correction::IDENTITY; CAL_BANDS];
-        Correction::of_bands(&mut c, &models, 0.2);
+        Correction::of_bands(&mut c, &models, 0.2, 0.0);
         // The omni part each correction undoes: a = b·(1 − 2·c0) with the applied b = ½/c1.
         let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
         for band in 0..CAL_BANDS {
@@ -1349,7 +1405,7 @@ mod tests {
             models[band].dipole_part = model.dipole_part.map(|b| 1.0 - b);
         }
         let mut corrections = [Correction::IDENTITY; CAL_BANDS];
-        Correction::of_bands(&mut corrections, &models, 0.2);
+        Correction::of_bands(&mut corrections, &models, 0.2, 0.0);
         for c in corrections {
             for m in 0..3 {
                 assert!(
@@ -1358,6 +1414,46 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_omni_spread_is_bounded_by_the_dipole_spread() {
+        // An ideal array beside a noise source: the omni parts' estimate carries the source's net
+        // intensity, the dipole parts are ideal. Applied: the ideal capsule (up to the common gain).
+        let mut source = BandModel {
+            peaks: 50_000.0,
+            ..BandModel::IDEAL
+        };
+        source.omni_part = [0.58, 0.46, 0.46];
+        let models = [source; CAL_BANDS];
+        let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
+        let mut bounded = [Correction::IDENTITY; CAL_BANDS];
+        Correction::of_bands(&mut bounded, &models, 0.2, 4.0);
+        let mut free = [Correction::IDENTITY; CAL_BANDS];
+        Correction::of_bands(&mut free, &models, 0.2, 0.0);
+        for band in 0..CAL_BANDS {
+            let (a, f) = (undone(&bounded[band]), undone(&free[band]));
+            let spread = |v: [f32; 3]| v.iter().fold(0.0f32, |m, x| m.max((x - v[0]).abs()));
+            assert!(spread(a) < 1e-4, "{a:?}");
+            assert!(spread(f) > 0.1, "{f:?}");
+        }
+        // Imperfect capsules (gain and pattern errors): their omni spread is within four times
+        // their dipole spread, and the bound changes nothing.
+        let mut imperfect = BandModel {
+            peaks: 50_000.0,
+            ..BandModel::IDEAL
+        };
+        for (m, (g, beta)) in [(1.1f32, 0.52f32), (0.92, 0.47), (1.0, 0.5)]
+            .iter()
+            .enumerate()
+        {
+            imperfect.omni_part[m] = g * (1.0 - beta);
+            imperfect.dipole_part[m] = g * beta;
+        }
+        let models = [imperfect; CAL_BANDS];
+        Correction::of_bands(&mut bounded, &models, 0.2, 4.0);
+        Correction::of_bands(&mut free, &models, 0.2, 0.0);
+        assert_eq!(bounded, free);
     }
 
     #[test]
