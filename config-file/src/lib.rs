@@ -494,6 +494,10 @@ mod tests {
                 "[capsule_calibration]\nmemory_frames = 0.0",
                 "capsule_calibration.memory_frames",
             ),
+            (
+                "[capsule_calibration]\nmax_omni_spread = -1.0",
+                "capsule_calibration.max_omni_spread",
+            ),
             ("fdiv_pole = 1.0", "fdiv_pole"),
             ("band_hi_hz = 100.0\nnum_peaks = 8", "band_hi_hz"),
         ] {

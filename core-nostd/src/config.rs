@@ -300,7 +300,7 @@ impl LocatorConfig {
         }
         if c.capsule_calibration.enabled && !c.capsule_calibration.is_valid() {
             return invalid(
-                "self-calibration: finite background dB ≥ 0, memory ≥ 1 frame, prior ≥ 0, anisotropy > 0",
+                "self-calibration: finite background dB ≥ 0, memory ≥ 1 frame, prior ≥ 0, anisotropy > 0, omni spread bound ≥ 0",
             );
         }
         if c.background.enabled && !c.background.is_valid() {

@@ -57,12 +57,15 @@
 //! is kept as it was (no drift toward the noise source). Speech frames are never used, so a
 //! talker, static or moving, cannot pull the estimate.
 //!
-//! A directional source that runs all the time (a fan, a projector, a loudspeaker) leaves the
-//! cross-powers anisotropic for good, and holding would then never learn. Its net intensity moves
-//! the omni parts' estimate as capsule errors would, but not the dipole parts': so the omni parts'
-//! spread across the cardioids is applied only up to [`CapsuleCalibration::max_omni_spread`] times
-//! the dipole parts' spread, which a real capsule's gain and pattern errors give both alike (see
-//! [`bound_omni_spread`]). An ideal array then stays ideal beside a noise source.
+//! A directional source that runs all the time (a fan, a projector, a loudspeaker) need not fail
+//! this check, and its net intensity then moves the omni parts' estimate as capsule errors would,
+//! but not the dipole parts'. A real capsule's gain and pattern errors move both alike (a = g(1 − β)
+//! and b = g·β: a gain error both the same way, a pattern error oppositely), so their spreads
+//! across the cardioids are of a size; the omni parts' spread is applied only up to
+//! [`CapsuleCalibration::max_omni_spread`] times the dipole parts' (both as estimated, before the
+//! shrinkage below). An ideal array then stays nearly ideal beside a noise source; capsules whose
+//! gain and pattern errors happen to cancel in the dipole parts keep only part of their omni
+//! correction.
 //!
 //! # Confidence
 //! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
@@ -137,7 +140,7 @@ pub struct CapsuleCalibration {
     pub max_anisotropy: f32,
     /// Largest spread of the omni parts across the three cardioids (the size of their deviations
     /// about their mean) relative to the dipole parts' spread, in the estimate; a larger omni
-    /// spread is applied scaled down to it (0: no bound). See [`bound_omni_spread`].
+    /// spread is applied scaled down to it (0: no bound; see the module documentation).
     pub max_omni_spread: f32,
 }
 
