@@ -498,6 +498,10 @@ mod tests {
                 "[capsule_calibration]\nmax_omni_spread = -1.0",
                 "capsule_calibration.max_omni_spread",
             ),
+            (
+                "[background]\nexcess_directivity = -0.5",
+                "background.excess_directivity",
+            ),
             ("fdiv_pole = 1.0", "fdiv_pole"),
             ("band_hi_hz = 100.0\nnum_peaks = 8", "band_hi_hz"),
         ] {

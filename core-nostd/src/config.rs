@@ -304,7 +304,7 @@ impl LocatorConfig {
             );
         }
         if c.background.enabled && !c.background.is_valid() {
-            return invalid("background: finite background dB ≥ 0, rise ≥ 0, memory ≥ 1 frame");
+            return invalid("background: finite background dB ≥ 0, rise ≥ 0, memory ≥ 1 frame, excess directivity ≥ 0");
         }
         if !c.kernel.is_valid() {
             return invalid("kernel: need a finite scale > 0");

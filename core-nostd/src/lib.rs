@@ -50,7 +50,7 @@
 //! | 4 | frame level, silence, gate | `cma-frontend` · [`frame_level`] | `front_end` (`silence_power`, `clipped_confidence`) |
 //! | 5 | noise-floor gate of b | `cma-analysis` · [`noise_floor`] ([`power_ramp`]) | `noise_gate`: [`noise_floor::NoiseGate`] |
 //! | 6 | peaks of \|X_omni\| (§5.1.2) | `cma-analysis` · [`peak_picker`] | `peaks`: [`peak_picker::PeakSettings`] |
-//! | 7 | self-calibration of the cardioids, background field | `cma-calibration` · [`capsule_calibration`], [`background_field`] ([`band_floors`]) | `capsule_calibration`: [`capsule_calibration::CapsuleCalibration`]; `background`: [`background_field::BackgroundField`] |
+//! | 7 | self-calibration of the cardioids, background field (noise-field report; stationary excess taken off the peaks) | `cma-calibration` · [`capsule_calibration`], [`background_field`] ([`band_floors`]) | `capsule_calibration`: [`capsule_calibration::CapsuleCalibration`]; `background`: [`background_field::BackgroundField`] |
 //! | 8 | features at the peaks (eq. 5.7), direct-sound weights | `cma-analysis` · [`features`], [`direct_sound`] | `curves.features`: [`features::FeatureKind`]; `direct_sound`: [`direct_sound::DirectSound`] |
 //! | 9 | reference tables, noisy references (eq. 5.16–5.20) | `cma-localization` · [`reference_table`], [`embedded_table`], [`noisy_reference`] | the [`ReferenceTable`]; `curves` (`noise_mixing`, `snr_*`) |
 //! | 10 | similarity curve | `cma-localization` · [`similarity`], [`curve_kernel`] | `curves`: [`similarity::CurveSettings`]; `kernel`: [`curve_kernel::CurveKernel`] |

@@ -75,16 +75,19 @@ fn self_calibration_learns_through_the_capsules_own_noise() {
     let dir = tempfile::tempdir().unwrap();
     let bad = noisy_scene(dir.path(), "imperfect.wav", true, Some("-15"));
     let good = noisy_scene(dir.path(), "ideal.wav", false, Some("-15"));
-    // Measured: imperfect on 1.25° (active) / 1.32° (magnitude), off 17.6° / 12.3° (before the
-    // noise was taken off the estimate's cross-powers, on was 5.3°); ideal on 0.68° / 1.22°,
-    // off 0.38° / 1.07°.
+    // Measured: imperfect on 1.41° (active) / 1.66° (magnitude), off 7.07° / 5.86° (before the
+    // noise was taken off the estimate's cross-powers, on was 5.3°; before the background field
+    // took a directional background's excess off the peaks, on 1.25° / 1.32°, off 17.6° / 12.3°:
+    // with the self-calibration off the capsules' omni errors make the background look
+    // directional, and the excess takes part of them off); ideal on 0.68° / 1.22°, off 0.38° /
+    // 1.07°.
     for features in ["active", "magnitude"] {
         let (on, off) = on_off(&bad, features);
         assert!(
             on < 2.5,
             "{features}: imperfect array, self-calibrated: {on:.2}°"
         );
-        assert!(off > 4.0 * on, "{features}: on {on:.2}°, off {off:.2}°");
+        assert!(off > 3.0 * on, "{features}: on {on:.2}°, off {off:.2}°");
         let (on, off) = on_off(&good, features);
         assert!(
             on < off + 0.5,

@@ -1,6 +1,7 @@
 //! The similarity method on one analysis frame (thesis §5.1): omni power → peaks → cardioid DFT at
-//! the peaks (self-calibration correction) → features and direct-sound weights → similarity curve →
-//! curve variance → reliability b (or the thesis's frame quality measures) → raw argmax.
+//! the peaks (the self-calibration's correction; a directional background's stationary excess
+//! taken off) → features and direct-sound weights → similarity curve → curve variance →
+//! reliability b (or the thesis's frame quality measures) → raw argmax.
 //!
 //! Tracking over frames is not part of it (the `cma-tracking` crate).
 
@@ -21,6 +22,22 @@ use crate::similarity::{
 };
 use crate::spectrum::power;
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
+
+/// The cardioids `xc` of a peak (omni `w`, power `p0` > 0) with a stationary background's
+/// `excess` (per cardioid, omni power units) taken off their active ratios: X_c − (e_c/|X_0|²)·X_0,
+/// the factor clamped to ±½ (a bin far below its background is not turned around).
+fn without_excess(
+    xc: [microfft::Complex32; 3],
+    w: microfft::Complex32,
+    excess: &[f32; 3],
+    p0: f32,
+) -> [microfft::Complex32; 3] {
+    let inv = 1.0 / p0;
+    core::array::from_fn(|c| {
+        let f = (excess[c] * inv).clamp(-0.5, 0.5);
+        microfft::Complex32::new(xc[c].re - f * w.re, xc[c].im - f * w.im)
+    })
+}
 
 /// Per-frame diagnostics of the similarity method, for plots and studies (not needed to localize).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -111,8 +128,12 @@ pub struct SimilarityFrame {
     onset: OnsetState,
     /// Blind self-calibration of the cardioids.
     capsules: CapsuleCalibrationState,
-    /// The measured stationary background (the noise-field report).
+    /// The measured stationary background (the noise-field report, the stationary excess).
     background: BackgroundFieldState,
+    /// Whether a directional background's stationary excess is taken off the peaks: with the
+    /// ideal model's table, whose diffuse point the excess is measured from (a measured table
+    /// holds the capsules' own).
+    take_off_excess: bool,
     /// The estimate the self-calibration starts from at every reset.
     capsule_start: CapsuleEstimate,
     diagnostics: FrameDiagnostics,
@@ -144,6 +165,7 @@ impl SimilarityFrame {
             onset: OnsetState::new(),
             capsules: CapsuleCalibrationState::idle(),
             background: BackgroundFieldState::idle(),
+            take_off_excess: false,
             capsule_start: CapsuleEstimate::IDEAL,
             diagnostics: FrameDiagnostics {
                 curve_variance: 0.0,
@@ -170,6 +192,7 @@ impl SimilarityFrame {
             *row = table.freq_index(crate::spectrum::bin_frequency(k, fs)) as u16;
         }
         self.fs = fs;
+        self.take_off_excess = table.is_ideal_model();
         self.settings = settings.frame;
         self.refine = refine;
         self.picker = picker;
@@ -325,9 +348,17 @@ impl SimilarityFrame {
             } else {
                 xc
             };
-            if measuring {
+            let xc = if measuring {
                 self.background.add_peak(k, omni[k], &xc);
-            }
+                match self.background.excess(k) {
+                    Some(e) if self.take_off_excess && p0 > 0.0 => {
+                        without_excess(xc, omni[k], &e, p0)
+                    }
+                    _ => xc,
+                }
+            } else {
+                xc
+            };
             let Some(y) = self.curves.features.of_bin(omni[k], p0, xc) else {
                 continue;
             };
