@@ -187,9 +187,8 @@ impl BackgroundFieldState {
     /// analysis frames per second), in place.
     pub fn reset(&mut self, settings: BackgroundField, fs: f32, frames_per_s: f32) {
         // Field by field: the excess table is too large for a temporary on the boards' stack.
-        let idle = Self::idle_means();
         self.frame = [FrameSums::ZERO; BG_BANDS];
-        self.means = idle;
+        self.means = Self::idle_means();
         self.subtracting = [false; BG_BANDS];
         self.excess.fill([0; CARDIOIDS]);
         self.settings = settings;
@@ -232,7 +231,9 @@ impl BackgroundFieldState {
             xw[m] = x[m].re * w.re + x[m].im * w.im;
             s.xw[m] += xw[m];
         }
-        if let Some(e) = self.excess.get_mut(k) {
+        // Learned only where it can be taken off (a directivity is at most 1).
+        let learning = self.settings.excess_directivity < 1.0;
+        if let Some(e) = self.excess.get_mut(k).filter(|_| learning) {
             for m in 0..CARDIOIDS {
                 let old = from_bf16(e[m]);
                 let new = old + EXCESS_POLE * (xw[m] - 0.5 * ww - old);

@@ -21,17 +21,17 @@ use crate::similarity::{
     normalise_frame_curve, CurveBuilder, CurveSettings, PeakFeature, RowCache,
 };
 use crate::spectrum::power;
-use crate::{CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
+use crate::{CARDIOIDS, CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, NUM_BINS};
 
 /// The cardioids `xc` of a peak (omni `w`, power `p0` > 0) with a stationary background's
 /// `excess` (per cardioid, omni power units) taken off their active ratios: X_c − (e_c/|X_0|²)·X_0,
 /// the factor clamped to ±½ (a bin far below its background is not turned around).
 fn without_excess(
-    xc: [microfft::Complex32; 3],
+    xc: [microfft::Complex32; CARDIOIDS],
     w: microfft::Complex32,
-    excess: &[f32; 3],
+    excess: &[f32; CARDIOIDS],
     p0: f32,
-) -> [microfft::Complex32; 3] {
+) -> [microfft::Complex32; CARDIOIDS] {
     let inv = 1.0 / p0;
     core::array::from_fn(|c| {
         let f = (excess[c] * inv).clamp(-0.5, 0.5);
@@ -350,10 +350,13 @@ impl SimilarityFrame {
             };
             let xc = if measuring {
                 self.background.add_peak(k, omni[k], &xc);
-                match self.background.excess(k) {
-                    Some(e) if self.take_off_excess && p0 > 0.0 => {
-                        without_excess(xc, omni[k], &e, p0)
-                    }
+                let excess = if self.take_off_excess {
+                    self.background.excess(k)
+                } else {
+                    None
+                };
+                match excess {
+                    Some(e) if p0 > 0.0 => without_excess(xc, omni[k], &e, p0),
                     _ => xc,
                 }
             } else {
