@@ -19,8 +19,8 @@
 //! Re(X_c·X_0*) = S_c + N·Y_c, with N·Y_c the background's, which is N/2 for a diffuse one. What
 //! a directional source adds beyond that, the excess E_c = N·(Y_c − ½), pulls the peak's active
 //! ratios toward the source, the more the weaker the talker is in that bin. So every bin below
-//! [`EXCESS_BINS`] keeps a running mean of Re(X_c·X_0*) − ½|X_0|² over its background peaks (about
-//! ten; each bin is a peak of a background frame now and then), and while its band's background is
+//! [`EXCESS_BINS`] keeps a running mean of Re(X_c·X_0*) − ½|X_0|² over its last ten or so background peaks
+//! (the first ten averaged equally; each bin is a peak of a background frame now and then), and while its band's background is
 //! directional (directivity above [`BackgroundField::excess_directivity`], with 20 background frames
 //! behind the band's means) every peak's cardioids become X_c − (E_c/|X_0|²)·X_0: the active ratios
 //! less the excess's share, what the talker and a diffuse background would give. In diffuse
@@ -61,8 +61,9 @@ fn from_bf16(h: u16) -> f32 {
     f32::from_bits(u32::from(h) << 16)
 }
 
-/// Weight of a background peak in its bin's excess (a memory of about ten background peaks).
-const EXCESS_POLE: f32 = 0.1;
+/// Memory of a bin's excess in background peaks: the first this many average equally, then each
+/// weighs 1/this in a running mean.
+const EXCESS_PEAKS: f32 = 10.0;
 
 /// Background frames a band's means rest on before its excess is taken off.
 const EXCESS_MIN_FRAMES: f32 = 20.0;
@@ -158,6 +159,8 @@ pub struct BackgroundFieldState {
     /// bfloat16 (the upper half of the f32's bits: 8 significant bits are plenty for a running
     /// mean of ten noisy values, and half the RAM).
     excess: [[u16; CARDIOIDS]; EXCESS_BINS],
+    /// Background peaks behind each bin's excess, up to [`EXCESS_PEAKS`].
+    excess_peaks: [u8; EXCESS_BINS],
 }
 
 impl BackgroundFieldState {
@@ -172,6 +175,7 @@ impl BackgroundFieldState {
             pole: 1.0,
             subtracting: [false; BG_BANDS],
             excess: [[0; CARDIOIDS]; EXCESS_BINS],
+            excess_peaks: [0; EXCESS_BINS],
         }
     }
 
@@ -191,6 +195,7 @@ impl BackgroundFieldState {
         self.means = Self::idle_means();
         self.subtracting = [false; BG_BANDS];
         self.excess.fill([0; CARDIOIDS]);
+        self.excess_peaks.fill(0);
         self.settings = settings;
         self.bands = BandFloors::new(
             &BG_BAND_EDGES_HZ,
@@ -233,10 +238,18 @@ impl BackgroundFieldState {
         }
         // Learned only where it can be taken off (a directivity is at most 1).
         let learning = self.settings.excess_directivity < 1.0;
-        if let Some(e) = self.excess.get_mut(k).filter(|_| learning) {
+        if let (Some(e), Some(n)) = (
+            self.excess.get_mut(k).filter(|_| learning),
+            self.excess_peaks.get_mut(k),
+        ) {
+            // The first peaks average equally (1/n), then the pole takes over.
+            if f32::from(*n) < EXCESS_PEAKS {
+                *n += 1;
+            }
+            let g = 1.0 / f32::from(*n);
             for m in 0..CARDIOIDS {
                 let old = from_bf16(e[m]);
-                let new = old + EXCESS_POLE * (xw[m] - 0.5 * ww - old);
+                let new = old + g * (xw[m] - 0.5 * ww - old);
                 if new.is_finite() {
                     e[m] = to_bf16(new);
                 }
@@ -500,6 +513,33 @@ mod tests {
         s.settings.excess_directivity = 1.0;
         s.end_frame();
         assert_eq!(s.excess(bins[0]), None);
+    }
+
+    /// A bin's first background peaks average equally (its excess is their mean from the first
+    /// one), later ones weigh 1/[`EXCESS_PEAKS`].
+    #[test]
+    fn a_bins_first_peaks_average_equally() {
+        let mut s = state();
+        let k = 30;
+        let mut power = [0.0f32; NUM_BINS];
+        power[k] = 1.0;
+        let excess_after = |s: &mut BackgroundFieldState, re: f32| {
+            s.begin_frame(&power, 10, 300, true);
+            let x = [Complex32::new(re, 0.0); 3];
+            s.add_peak(k, Complex32::new(1.0, 0.0), &x);
+            s.end_frame();
+            s.excess[k].map(from_bf16)
+        };
+        // Re(X_c·X_0*) − ½|X_0|² of the peaks: 0.25, then 0.75 (mean 0.5), then 0.5.
+        assert_eq!(excess_after(&mut s, 0.75), [0.25; 3]);
+        assert_eq!(excess_after(&mut s, 1.25), [0.5; 3]);
+        for _ in 0..40 {
+            excess_after(&mut s, 1.0);
+        }
+        assert_eq!(s.excess_peaks[k], EXCESS_PEAKS as u8);
+        // Past the first ten: one peak of 1.5 moves the mean by a tenth of its distance.
+        let e = excess_after(&mut s, 2.0)[0];
+        assert!((e - 0.6).abs() < 0.01, "{e}");
     }
 
     /// The excess's bfloat16 storage: 8 significant bits, rounded to nearest.
