@@ -103,13 +103,6 @@ impl InputGuard {
         scratch: &'a mut [[f32; CHANNELS]],
     ) -> &'a [[f32; CHANNELS]] {
         let n = block.len();
-        // x86_64: a whole-block vector test first (cheap there); the Cortex-M4F goes straight to the
-        // scan below, which costs the same and also finds the frame.
-        #[cfg(target_arch = "x86_64")]
-        if self.all_below_level(block) {
-            self.pass_clean(state, n);
-            return block;
-        }
         let level = self.clip_level;
         if !(level > 0.0) {
             return self.clean_copy(state, block, scratch, (0, 0));
@@ -234,50 +227,6 @@ impl InputGuard {
         (self.clip_level > 0.0).then(|| sse::LevelCheck::new(self.clip_level.to_bits() << 1))
     }
 
-    /// Whether every value of `block` is finite with |v| below the clip level (then the guard leaves
-    /// it alone), without a branch per value.
-    ///
-    /// For level > 0 the IEEE order of non-negative floats is the order of their bits, and NaN and ±Inf
-    /// are above every finite level: |v| < level ⟺ abs_bits(v) < abs_bits(level). With the bits
-    /// shifted left by one (dropping the sign), u = 2·abs_bits(v) and t = 2·abs_bits(level), u ≥ t
-    /// ⟺ u + (2³² − t) carries out of 32 bits: the carries are counted (an add with carry per value on
-    /// the Cortex-M4F). A level ≤ 0 or NaN makes every value suspect. (The block test of the x86_64
-    /// path; elsewhere [`InputGuard::clean_block`] scans with [`first_at_or_above`].)
-    #[cfg(any(target_arch = "x86_64", test))]
-    #[inline]
-    fn all_below_level(&self, block: &[[f32; CHANNELS]]) -> bool {
-        let level = self.clip_level;
-        if !(level > 0.0) {
-            return block.is_empty();
-        }
-        #[cfg(target_arch = "x86_64")]
-        {
-            sse::none_at_or_above(block, level.to_bits() << 1)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            first_at_or_above(block, (level.to_bits() << 1).wrapping_neg()) == block.len()
-        }
-    }
-
-    /// The portable form of [`InputGuard::all_below_level`]'s scan for a level with doubled bits
-    /// `limit` (≥ 2): whether no value has u = 2·abs_bits(v) ≥ `limit`, by counting carries.
-    #[cfg(test)]
-    fn count_at_or_above_is_zero(block: &[[f32; CHANNELS]], limit: u32) -> bool {
-        let minus_limit = limit.wrapping_neg();
-        // Counted per chunk, so the count cannot wrap.
-        block.chunks(1 << 16).all(|chunk| {
-            let mut at_or_above = 0u32;
-            for x in chunk {
-                for v in x {
-                    let (_, carry) = (v.to_bits() << 1).overflowing_add(minus_limit);
-                    at_or_above += u32::from(carry);
-                }
-            }
-            at_or_above == 0
-        })
-    }
-
     /// Flags for the analysis frame that ends now.
     #[must_use]
     pub fn flags(&self, state: &InputGuardState) -> Flags {
@@ -379,7 +328,12 @@ fn at_or_above(v: f32, minus_limit: u32) -> bool {
 
 /// Index of the first sample frame of `block` with a value v whose u = 2·abs_bits(v) carries in
 /// u + `minus_limit` (i.e. u ≥ limit for `minus_limit` = −limit: |v| at or above the clip level, or v
-/// not finite; see [`InputGuard::all_below_level`]), or `block.len()` if there is none.
+/// not finite), or `block.len()` if there is none.
+///
+/// For a level > 0 the IEEE order of non-negative floats is the order of their bits, and NaN and ±Inf
+/// are above every finite level: |v| ≥ level ⟺ abs_bits(v) ≥ abs_bits(level). With the bits shifted
+/// left by one (dropping the sign), u = 2·abs_bits(v) and t = 2·abs_bits(level), u ≥ t ⟺
+/// u + (2³² − t) carries out of 32 bits.
 #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
 #[inline]
 fn first_at_or_above(block: &[[f32; CHANNELS]], minus_limit: u32) -> usize {
@@ -526,9 +480,11 @@ fn first_at_or_above(block: &[[f32; CHANNELS]], minus_limit: u32) -> usize {
     (p as usize - start as usize) / core::mem::size_of::<[f32; CHANNELS]>() - 1
 }
 
-/// The x86_64 scan of [`InputGuard::all_below_level`]: a sample frame is one SSE2 vector, so the test
-/// of its four values is a shift, an XOR and a compare (instead of the vectorised carry count, which
-/// transposes the frames first). Host only: the Cortex-M4F keeps the carry count.
+/// The x86_64 input test that [`crate::front_end::FrontEnd::feed`] runs inside the decimator's pass
+/// over the input (decimation factor > 1): a sample frame is one SSE2 vector, so the test of its four
+/// values is a shift, an XOR and a compare, the test of [`first_at_or_above`]. Host only: the
+/// Cortex-M4F, and the host at factor 1, scan with [`first_at_or_above`] in
+/// [`InputGuard::clean_block`].
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod sse {
     use crate::block_decimator::FrameCheck;
@@ -538,8 +494,8 @@ pub(crate) mod sse {
         _mm_set1_epi32, _mm_setzero_si128, _mm_xor_si128,
     };
 
-    /// Whether sample frames are all finite and below the clip level, seen one at a time: the test
-    /// of [`none_at_or_above`], also run inside the decimator's pass over the input.
+    /// Whether sample frames are all finite and below the clip level, seen one at a time inside the
+    /// decimator's pass over the input.
     ///
     /// A value v fails when u = 2·abs_bits(v) ≥ `limit` (unsigned). Unsigned u ≥ limit ⟺
     /// u > limit − 1 ⟺ (u ⊕ 2³¹) > (limit − 1) ⊕ 2³¹ as signed integers, which `_mm_cmpgt_epi32`
@@ -589,17 +545,6 @@ pub(crate) mod sse {
                 self.bad = _mm_or_si128(self.bad, _mm_cmpgt_epi32(u, self.threshold));
             }
         }
-    }
-
-    /// Whether no value v of `block` has u = 2·abs_bits(v) ≥ `limit` (unsigned; `limit` ≥ 2, the
-    /// doubled bits of a level > 0): a [`LevelCheck`] over the block.
-    #[inline]
-    pub(super) fn none_at_or_above(block: &[[f32; CHANNELS]], limit: u32) -> bool {
-        let mut check = LevelCheck::new(limit);
-        for x in block {
-            check.see(x);
-        }
-        check.passed()
     }
 }
 
@@ -752,10 +697,11 @@ mod tests {
         }
     }
 
-    /// The x86_64 scan agrees with the portable carry count on random bit patterns (NaN, ±Inf,
-    /// subnormals included) and on values at and next to the level, for random levels.
+    /// The integer scan (and on x86_64 the test in the decimator's pass) agrees with the float test
+    /// on random bit patterns (NaN, ±Inf, subnormals included) and on values at and next to the
+    /// level, for random levels.
     #[test]
-    fn sse_scan_equals_carry_count() {
+    fn scan_equals_float_test() {
         let mut rng = crate::test_rng::XorShift64(0x9e37_79b9_7f4a_7c15);
         let mut next = || (rng.next_u64() >> 32) as u32;
         for round in 0..4000 {
@@ -784,23 +730,25 @@ mod tests {
                     f32::from_bits(bits)
                 })
             });
-            let limit = level_bits << 1;
-            #[cfg(target_arch = "x86_64")]
-            assert_eq!(
-                super::sse::none_at_or_above(&block[..len], limit),
-                InputGuard::count_at_or_above_is_zero(&block[..len], limit),
-                "level {level} block {:?}",
-                &block[..len]
-            );
-            let g = InputGuard {
-                clip_level: level,
-                hold_samples: 1,
-            };
-            let below = block[..len]
+            let block = &block[..len];
+            let below = block
                 .iter()
                 .flatten()
                 .all(|v| v.is_finite() && v.abs() < level);
-            assert_eq!(g.all_below_level(&block[..len]), below);
+            let minus_limit = (level_bits << 1).wrapping_neg();
+            let scan = first_at_or_above(block, minus_limit) == len;
+            assert_eq!(scan, below, "level {level} block {block:?}");
+            #[cfg(target_arch = "x86_64")]
+            {
+                use crate::block_decimator::FrameCheck;
+                let mut check = sse::LevelCheck::new(level_bits << 1);
+                block.iter().for_each(|x| check.see(x));
+                assert_eq!(
+                    check.passed(),
+                    below,
+                    "fused: level {level} block {block:?}"
+                );
+            }
         }
     }
 
@@ -846,7 +794,9 @@ mod tests {
                 for ch in 0..CHANNELS {
                     let mut x = [0.0; CHANNELS];
                     x[ch] = v;
-                    let pass = g.all_below_level(&[[0.0; CHANNELS], x]);
+                    let minus_limit = (level.to_bits() << 1).wrapping_neg();
+                    let pass =
+                        level > 0.0 && first_at_or_above(&[[0.0; CHANNELS], x], minus_limit) == 2;
                     assert_eq!(pass, below && level > 0.0, "level {level} v {v} ch {ch}");
                     // The same test inside the decimator's pass (x86_64): `None` where every value
                     // is suspect.
