@@ -19,11 +19,12 @@
 //! Re(X_c·X_0*) = S_c + N·Y_c, with N·Y_c the background's, which is N/2 for a diffuse one. What
 //! a directional source adds beyond that, the excess E_c = N·(Y_c − ½), pulls the peak's active
 //! ratios toward the source, the more the weaker the talker is in that bin. So every bin below
-//! [`EXCESS_BINS`] keeps a running mean of Re(X_c·X_0*) − ½|X_0|² over its last ten or so background peaks
-//! (the first ten averaged equally; each bin is a peak of a background frame now and then), and while its band's background is
-//! directional (directivity above [`BackgroundField::excess_directivity`], with 20 background frames
-//! behind the band's means) every peak's cardioids become X_c − (E_c/|X_0|²)·X_0: the active ratios
-//! less the excess's share, what the talker and a diffuse background would give. In diffuse
+//! [`EXCESS_BINS`] keeps a running mean of Re(X_c·X_0*) − ½|X_0|² over its background peaks (the
+//! first ten averaged equally, then a memory of about ten; each bin is a peak of a background frame
+//! now and then), and while its band's background is directional (directivity above
+//! [`BackgroundField::excess_directivity`], with 8 background frames behind the band's means)
+//! every peak's cardioids become X_c − (E_c/|X_0|²)·X_0: the active ratios less the excess's
+//! share, what the talker and a diffuse background would give. In diffuse
 //! backgrounds the excess is noise about 0, which would only add to the features' spread: hence
 //! the directivity gate. Measured (`scripts/validate`, full run, CHANGELOG): a white-noise
 //! loudspeaker 10 dB below a static talker in a room 68.9 → 97.7 % ACC10; the noise-source kinds
@@ -66,7 +67,7 @@ fn from_bf16(h: u16) -> f32 {
 const EXCESS_PEAKS: f32 = 10.0;
 
 /// Background frames a band's means rest on before its excess is taken off.
-const EXCESS_MIN_FRAMES: f32 = 20.0;
+const EXCESS_MIN_FRAMES: f32 = 8.0;
 
 /// Upper edges of the bands, Hz (the last band runs to Nyquist).
 pub const BG_BAND_EDGES_HZ: [f32; BG_BANDS - 1] = [1000.0];
