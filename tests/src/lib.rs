@@ -18,6 +18,13 @@ pub fn path_in(dir: &Path, name: &str) -> String {
     dir.join(name).to_string_lossy().into_owned()
 }
 
+/// A configuration file `name` in `dir` holding `text` (TOML), its path.
+pub fn config_file(dir: &Path, name: &str, text: &str) -> String {
+    let path = path_in(dir, name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
 /// Makes a scene with `host-sim scene` (synthetic talker) and returns the WAV path.
 pub fn make_scene(dir: &Path, name: &str, extra: &[&str]) -> PathBuf {
     let out = path_in(dir, name);

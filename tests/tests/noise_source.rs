@@ -3,7 +3,7 @@
 //! localizer runs with the default settings and with one stage changed. Thresholds are the values
 //! measured when the tests were written, with margin.
 
-use cma_tests::{errors_after, locate, make_scene, path_in};
+use cma_tests::{config_file, errors_after, locate, make_scene};
 use std::path::{Path, PathBuf};
 
 /// The talker's azimuth, degrees.
@@ -39,17 +39,10 @@ fn mae_after_1s(wav: &Path, extra: &[&str]) -> f64 {
     errs.iter().sum::<f64>() / errs.len() as f64
 }
 
-/// A configuration file in `dir` holding `text`.
-fn config(dir: &Path, name: &str, text: &str) -> String {
-    let path = path_in(dir, name);
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
 #[test]
 fn a_loudspeakers_stationary_excess_is_taken_off_the_talkers_peaks() {
     let dir = tempfile::tempdir().unwrap();
-    let without = config(
+    let without = config_file(
         dir.path(),
         "without.toml",
         "[background]\nexcess_directivity = 1.0\n",
@@ -78,7 +71,7 @@ fn a_noise_source_is_not_learned_as_an_ideal_arrays_capsule_error() {
     // bound (`max_omni_spread = 0`) 16.33° (before the excess was taken off the peaks: 10.91°,
     // 10.85°, 15.97°).
     let dir = tempfile::tempdir().unwrap();
-    let unbounded = config(
+    let unbounded = config_file(
         dir.path(),
         "unbounded.toml",
         "[capsule_calibration]\nmax_omni_spread = 0.0\n",

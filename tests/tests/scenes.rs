@@ -1,7 +1,7 @@
 //! The whole chain on scenes made by the project's own simulator: static talkers at several
 //! azimuths, a jump, a circling talker, noise only, a 48 kHz PCM24 file, and an evaluation folder.
 
-use cma_tests::{errors_after, host_sim, locate, make_scene, median, path_in};
+use cma_tests::{config_file, errors_after, host_sim, locate, make_scene, median, path_in};
 
 #[test]
 fn static_talkers_are_found_at_several_azimuths() {
@@ -283,8 +283,11 @@ fn a_talker_in_a_shoebox_room_with_a_fan_is_found_and_the_fan_is_recorded() {
     // nothing takes its stationary excess off the peaks; the default takes it off and stays much
     // nearer the talker (measured: median error 130.3° without, 17.7° with).
     let loud = scene("loud.wav", "white,az=70,el=20,dist=1.5,level=10");
-    let without_excess = path_in(dir.path(), "without-excess.toml");
-    std::fs::write(&without_excess, "[background]\nexcess_directivity = 1.0\n").unwrap();
+    let without_excess = config_file(
+        dir.path(),
+        "without-excess.toml",
+        "[background]\nexcess_directivity = 1.0\n",
+    );
     let loud_without = median(&errors_after(
         &locate(&loud, &["--config", &without_excess]),
         1.0,
