@@ -459,7 +459,8 @@ impl<'t> Locator<'t> {
             };
         #[cfg(not(feature = "thesis-options"))]
         let raw = frame.raw;
-        self.tracker.observe(&c.tracking, azimuth, motion_b);
+        self.tracker
+            .observe(&c.tracking, azimuth, frame.raw, motion_b);
         #[cfg(feature = "multi-talker")]
         if c.multi_track.enabled {
             let dominant = self.tracker.talker().map(|a| (a, b));

@@ -35,6 +35,9 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     refine_gain: 0.1,
     refine_limit: 1.0,
     refine_curve: crate::refine_curve::RefineCurve::Similarity,
+    motion_fit_pole: 0.99,
+    motion_fit_min_deg: 0.6,
+    refine_restart_steps: 3,
 };
 
 /// State of the tracking stage.
@@ -119,9 +122,9 @@ impl CurveTracker {
     /// Records the azimuth reported for the frame; once tracked estimates exist it teaches the grid
     /// tracker its velocity with reliability `motion_b` (before the first reliable frame the raw
     /// azimuths of noise would).
-    pub fn observe(&mut self, tracking: &Tracking, azimuth: f32, motion_b: f32) {
+    pub fn observe(&mut self, tracking: &Tracking, azimuth: f32, raw: Option<f32>, motion_b: f32) {
         if let (Tracking::Grid(t), true) = (tracking, self.have_history) {
-            t.observe_estimate(&mut self.grid, azimuth, motion_b);
+            t.observe_estimate(&mut self.grid, azimuth, raw.unwrap_or(f32::NAN), motion_b);
         }
         self.last_azimuth = azimuth;
     }

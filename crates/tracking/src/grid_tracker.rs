@@ -14,6 +14,7 @@
 //! model diffuses instead of averaging old curves, a moving talker is followed without lag.
 
 use crate::interpolation::{argmax_parabolic_mapped, offset_azimuth};
+use crate::motion_fit::MotionFit;
 use crate::refine_curve::RefineCurve;
 use crate::reliability::unit_reliability;
 use crate::running_curve::RunningCurve;
@@ -80,6 +81,18 @@ pub struct GridTracker {
     /// [`GridTracker::refine_gain`] is on: the similarity curve, or a distance curve
     /// ([`RefineCurve`]; the locator computes it and passes it to [`GridTracker::update_refined`]).
     pub refine_curve: RefineCurve,
+    /// Forgetting pole per frame of the motion fit ([`MotionFit`]; 0 disables it): a line through
+    /// the frames' own estimates near the reported azimuth, whose slope is the talker's velocity
+    /// through his pauses too.
+    pub motion_fit_pole: f32,
+    /// Least speed of the motion fit, degrees per frame, for its slope to drive the prediction in
+    /// place of the [`GridTracker::velocity_pole`] estimate (which still serves slower talkers,
+    /// whose pauses cost little).
+    pub motion_fit_min_deg: f32,
+    /// Grid steps the posterior's maximum must move in one frame (a jump, not motion) for the
+    /// running mean curve of [`GridTracker::refine_gain`] to restart from the new curves
+    /// (0: never), so the old place's curves do not place the estimate at the new one.
+    pub refine_restart_steps: u32,
 }
 
 /// An exponent x below which `floor + (1 − floor)·exp_nonpositive(x)` rounds to `floor` exactly
@@ -117,6 +130,12 @@ pub struct GridTrackerState {
     onset_left: u32,
     /// Running mean curve for the position between grid points.
     running: RunningCurve,
+    /// Weighted sums of the motion fit.
+    fit: MotionFit,
+    /// The motion fit's slope where it is significant, degrees per frame (NaN otherwise).
+    fit_velocity: f32,
+    /// Index of the posterior's maximum at the last estimate.
+    last_max: usize,
 }
 
 impl Default for GridTrackerState {
@@ -139,6 +158,9 @@ impl GridTrackerState {
             quiet: 0,
             onset_left: 0,
             running: RunningCurve::new(),
+            fit: MotionFit::new(),
+            fit_velocity: f32::NAN,
+            last_max: usize::MAX,
         }
     }
 
@@ -174,6 +196,8 @@ impl GridTracker {
             && unit(self.onset_likelihood_floor)
             && unit(self.refine_gain)
             && non_negative(self.refine_limit)
+            && unit(self.motion_fit_pole)
+            && non_negative(self.motion_fit_min_deg)
     }
 
     /// Side weight of the 3-tap random-walk kernel [a, 1 − 2a, a] for a grid spacing in degrees
@@ -242,7 +266,11 @@ impl GridTracker {
         }
         // Predict: circular 3-tap kernel with mean = drift and variance = diffusion (bins), plus
         // the jump floor. Mass moves from bin j to j + 1 with weight `up`.
-        let v = state.velocity;
+        let v = if state.fit_velocity.is_finite() {
+            state.fit_velocity
+        } else {
+            state.velocity
+        };
         let v = if v.abs() > self.min_velocity_deg {
             v
         } else {
@@ -355,19 +383,60 @@ impl GridTracker {
         if !(self.refine_gain > 0.0) {
             return Some((base, p));
         }
+        if self.refine_restart_steps > 0 && state.last_max < q {
+            let d = p.abs_diff(state.last_max);
+            if d.min(q - d) >= self.refine_restart_steps as usize {
+                state.running.restart();
+            }
+        }
+        state.last_max = p;
         let Some(d) = state.running.vertex_offset(p, q, self.refine_limit) else {
             return Some((base, p));
         };
         Some((offset_azimuth(&azimuths_deg[..q], p, d), p))
     }
 
-    /// Tells the tracker the azimuth it reported for this frame, for the velocity estimate, with the
-    /// reliability `b` the velocity learns from (usually the b of [`GridTracker::update`]; the
-    /// `Locator` leaves the frame onset weight out of it, see
+    /// Tells the tracker the azimuth it reported for this frame and the frame's own azimuth
+    /// `raw_deg` (its curve's maximum; NaN when it has none), for the velocity estimate and the
+    /// motion fit, with the reliability `b` they learn from (usually the b of
+    /// [`GridTracker::update`]; the `Locator` leaves the frame onset weight out of it, see
     /// [`cma_localization::frame_onset`]). NaN counts as 0.
-    pub fn observe_estimate(&self, state: &mut GridTrackerState, azimuth_deg: f32, b: f32) {
+    pub fn observe_estimate(
+        &self,
+        state: &mut GridTrackerState,
+        azimuth_deg: f32,
+        raw_deg: f32,
+        b: f32,
+    ) {
         let b = unit_reliability(b);
+        if self.motion_fit_pole > 0.0 {
+            // `wrap_deg` maps NaN to 0: a missing azimuth is a missing step or offset here.
+            let step = if state.previous.is_finite() && azimuth_deg.is_finite() {
+                crate::angle::wrap_deg(azimuth_deg - state.previous)
+            } else {
+                f32::NAN
+            };
+            if step.abs() > MAX_MOTION_STEP_DEG {
+                state.fit = MotionFit::new();
+            }
+            let offset = if raw_deg.is_finite() && azimuth_deg.is_finite() {
+                crate::angle::wrap_deg(raw_deg - azimuth_deg)
+            } else {
+                f32::NAN
+            };
+            state
+                .fit
+                .update(step, self.motion_fit_pole, offset, b.clamp(0.0, 1.0));
+            state.fit_velocity = match state.fit.significant_slope() {
+                Some(v) if v.abs() > self.motion_fit_min_deg => {
+                    v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG)
+                }
+                _ => f32::NAN,
+            };
+        }
         if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
+        } else if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite()
+        {
             let innovation = crate::angle::wrap_deg(azimuth_deg - state.previous - state.drift);
             if innovation.abs() <= MAX_MOTION_STEP_DEG {
                 let leak = 1.0 - self.velocity_pole.clamp(0.0, 1.0);
@@ -545,6 +614,9 @@ mod tests {
             refine_gain: 0.0,
             refine_limit: 1.0,
             refine_curve: RefineCurve::Similarity,
+            motion_fit_pole: 0.0,
+            motion_fit_min_deg: 0.0,
+            refine_restart_steps: 0,
         }
     }
 
@@ -596,7 +668,7 @@ mod tests {
             let mut s = GridTrackerState::new();
             for i in 0..10 {
                 t.update(&mut s, &curve, 0.2, 5.0);
-                t.observe_estimate(&mut s, i as f32, motion_b);
+                t.observe_estimate(&mut s, i as f32, f32::NAN, motion_b);
             }
             s.velocity()
         };
@@ -623,19 +695,19 @@ mod tests {
         // Estimates that move by 1° per frame while b = 0 (a pause, or noise before the talker).
         for i in 0..20 {
             t.update(&mut s, &curve, 0.0, 5.0);
-            t.observe_estimate(&mut s, i as f32, 0.0);
+            t.observe_estimate(&mut s, i as f32, f32::NAN, 0.0);
         }
         assert_eq!(s.velocity(), 0.0);
         for i in 20..40 {
             t.update(&mut s, &curve, 1.0, 5.0);
-            t.observe_estimate(&mut s, i as f32, 1.0);
+            t.observe_estimate(&mut s, i as f32, f32::NAN, 1.0);
         }
         assert!((s.velocity() - 1.0).abs() < 0.15, "{}", s.velocity());
         // A pause keeps what was learned.
         let v = s.velocity();
         for i in 40..60 {
             t.update(&mut s, &curve, 0.0, 5.0);
-            t.observe_estimate(&mut s, 40.0 + (i - 40) as f32 * 3.0, 0.0);
+            t.observe_estimate(&mut s, 40.0 + (i - 40) as f32 * 3.0, f32::NAN, 0.0);
         }
         assert_eq!(s.velocity(), v);
     }
@@ -749,7 +821,7 @@ mod tests {
                 });
                 let post = t.update(&mut s, &curve, 0.3, 5.0);
                 let est = argmax(post) as f32 * 5.0;
-                t.observe_estimate(&mut s, est, 0.3);
+                t.observe_estimate(&mut s, est, f32::NAN, 0.3);
                 if f > n / 2 {
                     err += crate::angle::wrap_deg(est - pos * 5.0);
                 }

@@ -3,13 +3,15 @@
 //! The similarity curves of the frames become the reported azimuth in [`curve_tracker`] (settings
 //! [`curve_tracker::Tracking`]): the thesis's one-pole filter on the curve or the product's
 //! Bayesian [`grid_tracker`] (settings [`grid_tracker::GridTracker`]), which places its estimate
-//! between grid points with [`running_curve`] and [`refine_curve`]. Several talkers at once:
+//! between grid points with [`running_curve`] and [`refine_curve`] and follows a moving talker
+//! through his pauses with [`motion_fit`]. Several talkers at once:
 //! [`multi_track`] (tracks with persistent IDs; settings [`multi_track::MultiTrack`]).
 #![no_std]
 #![deny(clippy::float_cmp_const)]
 
 pub mod curve_tracker;
 pub mod grid_tracker;
+pub mod motion_fit;
 pub mod multi_track;
 pub mod refine_curve;
 pub mod running_curve;
