@@ -89,10 +89,6 @@ pub struct GridTracker {
     /// place of the [`GridTracker::velocity_pole`] estimate (which still serves slower talkers,
     /// whose pauses cost little).
     pub motion_fit_min_deg: f32,
-    /// Grid steps the posterior's maximum must move in one frame (a jump, not motion) for the
-    /// running mean curve of [`GridTracker::refine_gain`] to restart from the new curves
-    /// (0: never), so the old place's curves do not place the estimate at the new one.
-    pub refine_restart_steps: u32,
 }
 
 /// An exponent x below which `floor + (1 − floor)·exp_nonpositive(x)` rounds to `floor` exactly
@@ -134,8 +130,6 @@ pub struct GridTrackerState {
     fit: MotionFit,
     /// The motion fit's slope where it is significant, degrees per frame (NaN otherwise).
     fit_velocity: f32,
-    /// Index of the posterior's maximum at the last estimate.
-    last_max: usize,
 }
 
 impl Default for GridTrackerState {
@@ -160,7 +154,6 @@ impl GridTrackerState {
             running: RunningCurve::new(),
             fit: MotionFit::new(),
             fit_velocity: f32::NAN,
-            last_max: usize::MAX,
         }
     }
 
@@ -383,13 +376,6 @@ impl GridTracker {
         if !(self.refine_gain > 0.0) {
             return Some((base, p));
         }
-        if self.refine_restart_steps > 0 && state.last_max < q {
-            let d = p.abs_diff(state.last_max);
-            if d.min(q - d) >= self.refine_restart_steps as usize {
-                state.running.restart();
-            }
-        }
-        state.last_max = p;
         let Some(d) = state.running.vertex_offset(p, q, self.refine_limit) else {
             return Some((base, p));
         };
@@ -416,7 +402,7 @@ impl GridTracker {
             } else {
                 f32::NAN
             };
-            if step.abs() > MAX_MOTION_STEP_DEG {
+            if step.abs() > crate::motion_fit::GATE_DEG {
                 state.fit = MotionFit::new();
             }
             let offset = if raw_deg.is_finite() && azimuth_deg.is_finite() {
@@ -616,7 +602,6 @@ mod tests {
             refine_curve: RefineCurve::Similarity,
             motion_fit_pole: 0.0,
             motion_fit_min_deg: 0.0,
-            refine_restart_steps: 0,
         }
     }
 

@@ -16,9 +16,9 @@ pub const GATE_DEG: f32 = 20.0;
 /// Standard errors the slope must lie from zero to be reported.
 pub const SIGNIFICANCE: f32 = 3.0;
 /// Least weight (sum of reliabilities) for a slope.
-const MIN_WEIGHT: f32 = 3.0;
+const MIN_WEIGHT: f32 = 10.0;
 /// Least weighted variance of the frame times, frames², for a slope.
-const MIN_SPREAD: f32 = 9.0;
+const MIN_SPREAD: f32 = 100.0;
 
 /// Weighted sums of (t, y): t in frames before now (≤ 0), y the frame estimate's offset in
 /// degrees from the latest reported azimuth.

@@ -16,9 +16,6 @@ use crate::MAX_AZIMUTHS;
 #[derive(Debug, Clone)]
 pub struct RunningCurve {
     mean: [f32; MAX_AZIMUTHS],
-    /// Sum of the gains since the last restart, up to 1: below 1 the mean is the gain-weighted
-    /// mean of the curves since then, so a restarted mean rests on the new curves alone.
-    weight: f32,
 }
 
 impl Default for RunningCurve {
@@ -33,14 +30,7 @@ impl RunningCurve {
     pub const fn new() -> Self {
         Self {
             mean: [0.0; MAX_AZIMUTHS],
-            weight: 1.0,
         }
-    }
-
-    /// Forgets the curves seen so far: the next curve replaces the mean, and the following ones
-    /// average with it equally until their gains add up to 1.
-    pub fn restart(&mut self) {
-        self.weight = 0.0;
     }
 
     /// The mean over the first `n` grid points.
@@ -60,12 +50,6 @@ impl RunningCurve {
         let mean = &mut self.mean[..q];
         let curve = &curve[..q];
         let g = if gain > 0.0 { gain.min(1.0) } else { 0.0 };
-        let g = if self.weight < 1.0 && g > 0.0 {
-            self.weight = (self.weight + g).min(1.0);
-            g / self.weight
-        } else {
-            g
-        };
         let frac = if shift.is_finite() && q > 1 {
             shift.abs().min(1.0)
         } else {
