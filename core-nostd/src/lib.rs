@@ -57,7 +57,7 @@
 //! | 11 | reliability b (eq. 5.31) or frame quality (§5.1.6) | `cma-localization` · [`reliability`], [`frame_quality`] | `reliability`: [`reliability::Reliability`]; `quality`: [`frame_quality::FrameQuality`] |
 //! | 12 | frame onset weight of b | `cma-localization` · [`frame_onset`] | `frame_onset`: [`frame_onset::FrameOnset`] |
 //! | — | steps 6–11 on one frame | `cma-localization` · [`similarity_frame`] | [`similarity_frame::SimilaritySettings`] ([`LocatorConfig::similarity_settings`]) |
-//! | 13 | tracking: one-pole filter or grid tracker, argmax | `cma-tracking` · [`curve_tracker`], [`grid_tracker`], [`running_curve`], [`refine_curve`]; [`interpolation`] | `tracking`: [`curve_tracker::Tracking`] |
+//! | 13 | tracking: one-pole filter or grid tracker (velocity from the [`motion_fit`]), argmax | `cma-tracking` · [`curve_tracker`], [`grid_tracker`], [`motion_fit`], [`running_curve`], [`refine_curve`]; [`interpolation`] | `tracking`: [`curve_tracker::Tracking`] |
 //! | 14 | several talkers | `cma-tracking` · [`multi_track`] | `multi_track`: [`multi_track::MultiTrack`] |
 //! | — | thesis options: rule 2, Cartesian filter | `cma-reference` · [`combination`], [`cartesian_filter`], [`alternative_result`] | `alternative`: [`alternative_result::AlternativeSettings`] |
 //! | — | baselines TDIV / FDIV | `cma-reference` · [`tdiv`], [`fdiv`], [`intensity`] | `method`: [`Method`]; `intensity`: [`intensity::IntensitySettings`] |
@@ -96,7 +96,9 @@ pub use cma_localization::{
 pub use cma_reference::{
     alternative_result, beamformer, cartesian_filter, combination, distance, fdiv, intensity, tdiv,
 };
-pub use cma_tracking::{curve_tracker, grid_tracker, multi_track, refine_curve, running_curve};
+pub use cma_tracking::{
+    curve_tracker, grid_tracker, motion_fit, multi_track, refine_curve, running_curve,
+};
 
 pub use cma_dsp::{
     CARDIOIDS, CARDIOID_LOOK_DEG, CHANNELS, FRAME_LEN, HOP, MAX_AZIMUTHS, MAX_PEAKS, MAX_SNR_SETS,
