@@ -421,8 +421,6 @@ impl GridTracker {
             };
         }
         if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {
-        } else if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite()
-        {
             let innovation = crate::angle::wrap_deg(azimuth_deg - state.previous - state.drift);
             if innovation.abs() <= MAX_MOTION_STEP_DEG {
                 let leak = 1.0 - self.velocity_pole.clamp(0.0, 1.0);
@@ -667,6 +665,22 @@ mod tests {
         assert!((full - (1.0 - 0.9f32.powi(9))).abs() < 1e-4, "{full}");
         // NaN counts as 0.
         assert_eq!(learn(f32::NAN), 0.0);
+    }
+
+    #[test]
+    fn the_innovation_driven_velocity_learns_too() {
+        let t = GridTracker {
+            velocity_pole: 0.9,
+            velocity_gain: 0.2,
+            ..base()
+        };
+        let curve = peaked(72, 10);
+        let mut s = GridTrackerState::new();
+        for i in 0..30 {
+            t.update(&mut s, &curve, 1.0, 5.0);
+            t.observe_estimate(&mut s, i as f32, f32::NAN, 1.0);
+        }
+        assert!(s.velocity() > 0.3, "{}", s.velocity());
     }
 
     #[test]
