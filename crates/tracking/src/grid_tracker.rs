@@ -413,8 +413,18 @@ impl GridTracker {
             state
                 .fit
                 .update(step, self.motion_fit_pole, offset, b.clamp(0.0, 1.0));
-            state.fit_velocity = match state.fit.significant_slope() {
-                Some(v) if v.abs() > self.motion_fit_min_deg => {
+            state.fit_velocity = match state.fit.velocity() {
+                // The talker's motion changed (he stopped, turned or sped up): the previous
+                // estimate, learned from the old motion, starts again from the new one.
+                Some((v, true)) => {
+                    state.velocity = v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG);
+                    if v.abs() > self.motion_fit_min_deg {
+                        state.velocity
+                    } else {
+                        f32::NAN
+                    }
+                }
+                Some((v, false)) if v.abs() > self.motion_fit_min_deg => {
                     v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG)
                 }
                 _ => f32::NAN,

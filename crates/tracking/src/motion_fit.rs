@@ -9,21 +9,90 @@
 //! his velocity, pauses or not. The fit keeps the frames within [`GATE_DEG`] of the reported
 //! azimuth (a reflection or noise source elsewhere stays out) and reports its slope only where it
 //! is [`SIGNIFICANCE`] standard errors from zero.
+//!
+//! The line remembers about the last 1.6 s (the grid tracker's pole 0.99), long enough to carry a
+//! talker through his pauses and long enough to carry the track on after he has stopped. A second,
+//! short line over the last ≈ 0.15 s ([`SHORT_POLE`]) watches for that: when its slope lies
+//! [`SIGNIFICANCE`] of its standard errors from the long line's, the talker's motion has changed,
+//! and the long line restarts from the short one.
 
 /// Half-width in degrees of the window around the reported azimuth whose frame estimates enter
 /// the fit.
 pub const GATE_DEG: f32 = 20.0;
 /// Standard errors the slope must lie from zero to be reported.
 pub const SIGNIFICANCE: f32 = 3.0;
-/// Least weight (sum of reliabilities) for a slope.
+/// Least weight (sum of reliabilities) and least weighted variance of the frame times (frames²)
+/// for the long line's slope.
 const MIN_WEIGHT: f32 = 10.0;
-/// Least weighted variance of the frame times, frames², for a slope.
 const MIN_SPREAD: f32 = 100.0;
+/// Forgetting pole per frame of the short line that detects a change of motion, and its least
+/// weight and time variance.
+pub const SHORT_POLE: f32 = 0.9;
+const SHORT_MIN_WEIGHT: f32 = 3.0;
+const SHORT_MIN_SPREAD: f32 = 16.0;
+
+/// The long and the short line.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MotionFit {
+    long: LineSums,
+    short: LineSums,
+    /// The long line restarted and has not yet the weight for a slope: the short one speaks.
+    restarting: bool,
+}
+
+impl MotionFit {
+    /// No frames.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            long: LineSums::new(),
+            short: LineSums::new(),
+            restarting: false,
+        }
+    }
+
+    /// One frame: the reported azimuth moved by `step_deg` since the last frame, the long line
+    /// forgets by `pole` (the short one by [`SHORT_POLE`]), and the frame's own estimate,
+    /// `offset_deg` from the reported azimuth, enters with weight `b` when it lies within
+    /// [`GATE_DEG`] (NaN or b ≤ 0: none).
+    pub fn update(&mut self, step_deg: f32, pole: f32, offset_deg: f32, b: f32) {
+        self.long.update(step_deg, pole, offset_deg, b);
+        self.short.update(step_deg, SHORT_POLE, offset_deg, b);
+    }
+
+    /// The talker's velocity in degrees per frame and whether his motion has just changed: after a
+    /// change, the short line's slope (whatever its significance) until the long line, restarted
+    /// from the short one, has the weight for a slope again; otherwise the long line's slope where
+    /// it is [`SIGNIFICANCE`] standard errors from zero. `None` when neither holds.
+    pub fn velocity(&mut self) -> Option<(f32, bool)> {
+        let long = self.long.slope(MIN_WEIGHT, MIN_SPREAD);
+        let short = self.short.slope(SHORT_MIN_WEIGHT, SHORT_MIN_SPREAD);
+        if long.is_some() {
+            self.restarting = false;
+        }
+        match (long, short) {
+            (Some((v, _)), Some((recent, se))) if (recent - v).abs() > SIGNIFICANCE * se => {
+                self.long = self.short;
+                self.restarting = true;
+                Some((recent, true))
+            }
+            (Some((v, se)), _) => (v.abs() > SIGNIFICANCE * se).then_some((v, false)),
+            (None, Some((recent, _))) if self.restarting => Some((recent, true)),
+            _ => None,
+        }
+    }
+
+    /// The long line's slope and its standard error (as [`MotionFit::velocity`] sees it).
+    #[must_use]
+    pub fn slope(&self) -> Option<(f32, f32)> {
+        self.long.slope(MIN_WEIGHT, MIN_SPREAD)
+    }
+}
 
 /// Weighted sums of (t, y): t in frames before now (≤ 0), y the frame estimate's offset in
 /// degrees from the latest reported azimuth.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MotionFit {
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct LineSums {
     w: f32,
     wt: f32,
     wtt: f32,
@@ -32,16 +101,8 @@ pub struct MotionFit {
     wyy: f32,
 }
 
-impl Default for MotionFit {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl MotionFit {
-    /// No frames.
-    #[must_use]
-    pub const fn new() -> Self {
+impl LineSums {
+    const fn new() -> Self {
         Self {
             w: 0.0,
             wt: 0.0,
@@ -52,10 +113,8 @@ impl MotionFit {
         }
     }
 
-    /// One frame: the reported azimuth moved by `step_deg` since the last frame, the frames seen so
-    /// far are forgotten by `pole`, and the frame's own estimate, `offset_deg` from the reported
-    /// azimuth, enters with weight `b` when it lies within [`GATE_DEG`] (NaN or b ≤ 0: none).
-    pub fn update(&mut self, step_deg: f32, pole: f32, offset_deg: f32, b: f32) {
+    /// See [`MotionFit::update`].
+    fn update(&mut self, step_deg: f32, pole: f32, offset_deg: f32, b: f32) {
         // Offsets are measured from the new reported azimuth.
         if step_deg.is_finite() {
             let d = step_deg;
@@ -83,12 +142,11 @@ impl MotionFit {
     }
 
     /// The fitted slope in degrees per frame and its standard error, when the weight and the
-    /// spread of the frame times suffice.
-    #[must_use]
-    pub fn slope(&self) -> Option<(f32, f32)> {
+    /// variance of the frame times reach `min_weight` and `min_spread`.
+    fn slope(&self, min_weight: f32, min_spread: f32) -> Option<(f32, f32)> {
         // The centred sums times w: Sxx·w = den, Sxy·w = num, Syy·w = syy.
         let den = self.w * self.wtt - self.wt * self.wt;
-        if !(self.w >= MIN_WEIGHT && den >= MIN_SPREAD * self.w * self.w) {
+        if !(self.w >= min_weight && den >= min_spread * self.w * self.w) {
             return None;
         }
         let num = self.w * self.wty - self.wt * self.wy;
@@ -97,13 +155,6 @@ impl MotionFit {
         let residual = (syy - v * num).max(0.0) / self.w;
         let se = libm::sqrtf(residual / (self.w - 2.0).max(1.0) * self.w / den);
         (v.is_finite() && se.is_finite()).then_some((v, se))
-    }
-
-    /// The slope when it lies [`SIGNIFICANCE`] standard errors from zero.
-    #[must_use]
-    pub fn significant_slope(&self) -> Option<f32> {
-        self.slope()
-            .and_then(|(v, se)| (v.abs() > SIGNIFICANCE * se).then_some(v))
     }
 }
 
@@ -139,8 +190,39 @@ mod tests {
             let (s, se) = run(v, 4.0, lag, 300).slope().unwrap();
             assert!((s - v).abs() < 0.05, "v {v} lag {lag}: {s} ± {se}");
         }
-        assert!(run(0.0, 4.0, 0.0, 300).significant_slope().is_none());
-        assert!(run(1.0, 4.0, 0.0, 300).significant_slope().is_some());
+        assert_eq!(run(0.0, 4.0, 0.0, 300).velocity(), None);
+        let (v, changed) = run(1.0, 4.0, 0.0, 300).velocity().unwrap();
+        assert!((v - 1.0).abs() < 0.05 && !changed, "{v} {changed}");
+    }
+
+    #[test]
+    fn a_talker_who_stops_is_seen_to_stop() {
+        let v = 1.44f32;
+        let mut fit = run(v, 2.0, 0.0, 300);
+        let mut rng = crate::test_rng::Lcg(9);
+        // He stops where he is; the reported azimuth drifts on at the old speed meanwhile.
+        let (stop, mut reported) = (v * 299.0, v * 299.0);
+        let mut seen = None;
+        for i in 0..60 {
+            reported += v;
+            let n = ((rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 4.0;
+            fit.update(v, 0.99, stop + n - reported, 1.0);
+            if let Some((slope, true)) = fit.velocity() {
+                seen = Some((i, slope));
+                break;
+            }
+        }
+        let (frames, slope) = seen.expect("no change seen");
+        assert!(frames <= 15 && slope < v, "{frames} frames, {slope}");
+        // The short line speaks until the long one has restarted: soon near 0.
+        for _ in 0..20 {
+            let d = fit.velocity().map_or(0.0, |(s, _)| s);
+            reported += d;
+            let n = ((rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 4.0;
+            fit.update(d, 0.99, stop + n - reported, 1.0);
+        }
+        let (slope, _) = fit.velocity().unwrap_or((0.0, false));
+        assert!(slope.abs() < 0.3, "{slope}");
     }
 
     #[test]
@@ -150,6 +232,7 @@ mod tests {
         // Forty silent frames in which the reported azimuth drifts on at the fitted speed.
         for _ in 0..40 {
             fit.update(before, 0.99, f32::NAN, 0.0);
+            assert_eq!(fit.velocity().map(|(_, changed)| changed), Some(false));
         }
         let after = fit.slope().unwrap().0;
         assert!((after - before).abs() < 1e-3, "{before} → {after}");
