@@ -206,6 +206,21 @@ fn bad_flags() {
     assert!(m.contains("--track"), "{m}");
     let m = err_of(&["scene", "--out", &path_in(dir.path(), "y.wav")]);
     assert!(m.contains("--source") && m.contains("--synth"), "{m}");
+    let y = path_in(dir.path(), "y.wav");
+    let m = err_of(&[
+        "scene",
+        "--out",
+        &y,
+        "--synth",
+        "1",
+        "--rotate-until",
+        "0.5",
+    ]);
+    assert!(
+        m.contains("--rotate-until") && m.contains("--rotate"),
+        "{m}"
+    );
+    assert!(!Path::new(&y).exists(), "no scene written");
 }
 
 #[test]

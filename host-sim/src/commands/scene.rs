@@ -30,6 +30,9 @@ pub struct SceneArgs {
     /// Circling talker: angular speed in degrees per second (start from --start-azimuth).
     #[arg(long, value_parser = arg_values::degrees)]
     pub rotate: Option<f64>,
+    /// With --rotate: the talker stops circling at this time (seconds) and stands still there.
+    #[arg(long, value_parser = arg_values::scene_time)]
+    pub rotate_until: Option<f64>,
     /// Start azimuth of --rotate, degrees.
     #[arg(long, value_parser = arg_values::degrees, default_value_t = 0.0)]
     pub start_azimuth: f64,
@@ -102,12 +105,18 @@ pub fn run(a: &SceneArgs) -> Result<()> {
         return crate::simulation::multi_talker_scene::run(a, n);
     }
     let source = scene::load_source(a.source.as_deref(), a.synth, a.rate, a.seed)?;
+    if a.rotate_until.is_some() && a.rotate.is_none() {
+        return Err(SimError::Usage(
+            "--rotate-until stops a circling talker: give --rotate too".into(),
+        ));
+    }
     let motion = match (a.azimuth, &a.track, a.rotate) {
         (Some(az), None, None) => scene::Motion::Steps(vec![(0.0, az)]),
         (None, Some(t), None) => scene::Motion::parse_steps(t)?,
         (None, None, Some(speed)) => scene::Motion::Rotate {
             start_deg: a.start_azimuth,
             deg_per_s: speed,
+            until_s: a.rotate_until,
         },
         (None, None, None) => scene::Motion::Steps(vec![(0.0, 0.0)]),
         _ => {

@@ -69,6 +69,11 @@ pub fn lead_in_seconds(s: &str) -> Result<f64, String> {
     number_in(s, 0.0, MAX_LEAD_IN_S, false)
 }
 
+/// A time within a scene: 0 to [`MAX_TIME_S`].
+pub fn scene_time(s: &str) -> Result<f64, String> {
+    number_in(s, 0.0, MAX_TIME_S, false)
+}
+
 /// A room-response length: more than 0, at most [`MAX_RIR_S`].
 pub fn rir_seconds(s: &str) -> Result<f64, String> {
     number_in(s, 0.0, MAX_RIR_S, true)

@@ -278,6 +278,7 @@ pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
             Some(speed) if k == 0 => Motion::Rotate {
                 start_deg: spec.azimuths[0],
                 deg_per_s: speed,
+                until_s: None,
             },
             _ => Motion::Steps(vec![(0.0, spec.azimuths[k])]),
         };

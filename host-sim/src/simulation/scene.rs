@@ -28,6 +28,8 @@ pub enum Motion {
         start_deg: f64,
         /// Angular speed, degrees per second (counter-clockwise positive).
         deg_per_s: f64,
+        /// Time from which the talker stands still where he is, seconds (`None`: he never stops).
+        until_s: Option<f64>,
     },
 }
 
@@ -43,7 +45,8 @@ impl Motion {
             Motion::Rotate {
                 start_deg,
                 deg_per_s,
-            } => wrap180(start_deg + deg_per_s * t),
+                until_s,
+            } => wrap180(start_deg + deg_per_s * until_s.map_or(t, |u| t.min(u))),
         }
     }
 
