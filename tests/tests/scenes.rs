@@ -1,7 +1,21 @@
 //! The whole chain on scenes made by the project's own simulator: static talkers at several
-//! azimuths, a jump, a circling talker, a fast one in a room, noise only, a 48 kHz PCM24 file, and an evaluation folder.
+//! azimuths, a jump, a circling talker, a fast one in a room, noise only, a 48 kHz PCM24 file, and
+//! an evaluation folder.
 
 use cma_tests::{config_file, errors_after, host_sim, locate, make_scene, median, path_in};
+use host_sim::io::ground_truth::{wrap180, Track};
+use host_sim::localization::frame_estimates::CsvEstimate;
+use std::path::Path;
+
+/// Signed errors (degrees) of the rows between `from_s` and `to_s` against the moving truth of
+/// the scene `wav` (its `.pos.csv`).
+fn errors_along_track(wav: &Path, rows: &[CsvEstimate], from_s: f64, to_s: f64) -> Vec<f64> {
+    let track = Track::read(&wav.with_extension("pos.csv")).unwrap();
+    rows.iter()
+        .filter(|r| r.t_s > from_s && r.t_s < to_s)
+        .map(|r| wrap180(r.azimuth_deg - track.azimuth_at(r.t_s)))
+        .collect()
+}
 
 #[test]
 fn static_talkers_are_found_at_several_azimuths() {
@@ -117,13 +131,7 @@ fn a_circling_talker_is_followed_without_lag() {
             "15",
         ],
     );
-    let rows = locate(&wav, &[]);
-    let track = host_sim::io::ground_truth::Track::read(&wav.with_extension("pos.csv")).unwrap();
-    let errs: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.t_s > 2.0 && r.t_s < 8.0)
-        .map(|r| host_sim::io::ground_truth::wrap180(r.azimuth_deg - track.azimuth_at(r.t_s)))
-        .collect();
+    let errs = errors_along_track(&wav, &locate(&wav, &[]), 2.0, 8.0);
     let bias = errs.iter().sum::<f64>() / errs.len() as f64;
     assert!(bias.abs() < 5.0, "mean error (lag) {bias}°");
     assert!(median(&errs.iter().map(|e| e.abs()).collect::<Vec<_>>()) < 6.0);
@@ -155,16 +163,9 @@ fn a_fast_talker_is_followed_through_his_pauses() {
             "2",
         ],
     );
-    let track = host_sim::io::ground_truth::Track::read(&wav.with_extension("pos.csv")).unwrap();
-    let within = |rows: &[host_sim::localization::frame_estimates::CsvEstimate]| {
-        let errs: Vec<f64> = rows
-            .iter()
-            .filter(|r| r.t_s > 1.0 && r.t_s < 12.0)
-            .map(|r| {
-                host_sim::io::ground_truth::wrap180(r.azimuth_deg - track.azimuth_at(r.t_s)).abs()
-            })
-            .collect();
-        errs.iter().filter(|e| **e <= 10.0).count() as f64 / errs.len() as f64
+    let within = |rows: &[CsvEstimate]| {
+        let errs = errors_along_track(&wav, rows, 1.0, 12.0);
+        errs.iter().filter(|e| e.abs() <= 10.0).count() as f64 / errs.len() as f64
     };
     let with_fit = within(&locate(&wav, &[]));
     let off = config_file(

@@ -402,32 +402,27 @@ impl GridTracker {
             } else {
                 f32::NAN
             };
-            if step.abs() > crate::motion_fit::GATE_DEG {
-                state.fit = MotionFit::new();
-            }
             let offset = if raw_deg.is_finite() && azimuth_deg.is_finite() {
                 crate::angle::wrap_deg(raw_deg - azimuth_deg)
             } else {
                 f32::NAN
             };
-            state
-                .fit
-                .update(step, self.motion_fit_pole, offset, b.clamp(0.0, 1.0));
+            state.fit.update(step, self.motion_fit_pole, offset, b);
             state.fit_velocity = match state.fit.velocity() {
-                // The talker's motion changed (he stopped, turned or sped up): the previous
-                // estimate, learned from the old motion, starts again from the new one.
-                Some((v, true)) => {
-                    state.velocity = v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG);
+                Some((v, changed)) => {
+                    let clamped = v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG);
+                    // The talker's motion changed (he stopped, turned or sped up): the previous
+                    // estimate, learned from the old motion, starts again from the new one.
+                    if changed {
+                        state.velocity = clamped;
+                    }
                     if v.abs() > self.motion_fit_min_deg {
-                        state.velocity
+                        clamped
                     } else {
                         f32::NAN
                     }
                 }
-                Some((v, false)) if v.abs() > self.motion_fit_min_deg => {
-                    v.clamp(-MAX_MOTION_STEP_DEG, MAX_MOTION_STEP_DEG)
-                }
-                _ => f32::NAN,
+                None => f32::NAN,
             };
         }
         if self.velocity_gain > 0.0 && state.previous.is_finite() && azimuth_deg.is_finite() {

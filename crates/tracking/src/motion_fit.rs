@@ -51,11 +51,15 @@ impl MotionFit {
         }
     }
 
-    /// One frame: the reported azimuth moved by `step_deg` since the last frame, the long line
-    /// forgets by `pole` (the short one by [`SHORT_POLE`]), and the frame's own estimate,
-    /// `offset_deg` from the reported azimuth, enters with weight `b` when it lies within
-    /// [`GATE_DEG`] (NaN or b ≤ 0: none).
+    /// One frame: the reported azimuth moved by `step_deg` since the last frame (NaN: unknown; a
+    /// step beyond [`GATE_DEG`] is a jump to another talker or place, and the fit starts again),
+    /// the long line forgets by `pole` (the short one by [`SHORT_POLE`]), and the frame's own
+    /// estimate, `offset_deg` from the reported azimuth, enters with weight `b` when it lies
+    /// within [`GATE_DEG`] (NaN or b ≤ 0: none).
     pub fn update(&mut self, step_deg: f32, pole: f32, offset_deg: f32, b: f32) {
+        if step_deg.abs() > GATE_DEG {
+            *self = Self::new();
+        }
         self.long.update(step_deg, pole, offset_deg, b);
         self.short.update(step_deg, SHORT_POLE, offset_deg, b);
     }
@@ -173,7 +177,7 @@ mod tests {
             let next = talker - lag;
             let step = next - reported;
             reported = next;
-            let n = ((rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 2.0 * noise;
+            let n = (rng.unit() - 0.5) * 2.0 * noise;
             fit.update(
                 if i == 0 { f32::NAN } else { step },
                 0.99,
@@ -205,7 +209,7 @@ mod tests {
         let mut seen = None;
         for i in 0..60 {
             reported += v;
-            let n = ((rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 4.0;
+            let n = (rng.unit() - 0.5) * 4.0;
             fit.update(v, 0.99, stop + n - reported, 1.0);
             if let Some((slope, true)) = fit.velocity() {
                 seen = Some((i, slope));
@@ -218,7 +222,7 @@ mod tests {
         for _ in 0..20 {
             let d = fit.velocity().map_or(0.0, |(s, _)| s);
             reported += d;
-            let n = ((rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 4.0;
+            let n = (rng.unit() - 0.5) * 4.0;
             fit.update(d, 0.99, stop + n - reported, 1.0);
         }
         let (slope, _) = fit.velocity().unwrap_or((0.0, false));
