@@ -302,6 +302,12 @@ impl<'t> Locator<'t> {
         self.similarity.diagnostics()
     }
 
+    /// The self-calibration's state (its estimate, correction and speech check).
+    #[must_use]
+    pub fn capsule_state(&self) -> &cma_calibration::capsule_calibration::CapsuleCalibrationState {
+        self.similarity.capsule_state()
+    }
+
     /// The self-calibration's current estimate of the cardioids (ideal, with no evidence, when
     /// the stage is off).
     #[must_use]

@@ -62,15 +62,15 @@ fn main() {
         &window,
     );
 
-    let mut twiddle = String::from(
-        "/// (cos, sin) of 2πn/512, n = 0…511: the twiddles of the direct DFT at picked bins.\npub static TWIDDLE_512: [[f32; 2]; 512] = [\n",
+    let quarter: Vec<f64> = (0..=FRAME_LEN / 4)
+        .map(|n| (2.0 * PI * n as f64 / FRAME_LEN as f64).sin())
+        .collect();
+    write_f32_array(
+        &mut out,
+        "/// sin 2πn/512, n = 0…128: a quarter wave, the twiddles of the direct DFT at picked bins\n/// (`spectrum::twiddle`).",
+        "SINE_QUARTER_512",
+        &quarter,
     );
-    for n in 0..FRAME_LEN {
-        let t = 2.0 * PI * n as f64 / FRAME_LEN as f64;
-        writeln!(twiddle, "    [{:?}, {:?}],", t.cos() as f32, t.sin() as f32).unwrap();
-    }
-    twiddle.push_str("];\n");
-    out.push_str(&twiddle);
 
     fft_tables(&mut out);
 

@@ -67,6 +67,12 @@
 //! gain and pattern errors happen to cancel in the dipole parts keep only part of their omni
 //! correction.
 //!
+//! Capsules matched within a few tenths of a dB have small dipole parts' spreads that still let a
+//! source through. There the talker decides ([`CapsuleCalibration::speech_check`],
+//! [`crate::speech_check`]): a capsule's omni error moves the talker's own sound as it moves the
+//! background, a source does not, and the part of the omni parts' correction that the talker's
+//! frames do not support is not applied.
+//!
 //! # Confidence
 //! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
 //! falls as 1/√n. Its deviations from the ideal capsule are applied only in so far as they clear
@@ -87,10 +93,11 @@
 //! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
 //! the correction; on background frames ten cross-products per peak, and every 16th background
 //! frame the four bands' capsule noise (a 4×4 factorisation and three solves each), solutions and
-//! corrections.
+//! corrections; the speech check's per-peak and per-frame sums ([`crate::speech_check`]).
 
 use crate::band_floors::BandFloors;
 use crate::power_ramp::power_ratio_from_db;
+use crate::speech_check::{plane_vector, SpeechCheck};
 use crate::{CARDIOIDS, NUM_BINS};
 use microfft::Complex32;
 
@@ -142,6 +149,9 @@ pub struct CapsuleCalibration {
     /// about their mean) relative to the dipole parts' spread, in the estimate; a larger omni
     /// spread is applied scaled down to it (0: no bound; see the module documentation).
     pub max_omni_spread: f32,
+    /// Whether the talker's frames check the omni parts' correction and withdraw what they do
+    /// not support (see [`crate::speech_check`]).
+    pub speech_check: bool,
 }
 
 impl CapsuleCalibration {
@@ -155,6 +165,7 @@ impl CapsuleCalibration {
         shrinkage: 0.14,
         max_anisotropy: 0.05,
         max_omni_spread: 8.0,
+        speech_check: true,
     };
 
     /// The product's settings.
@@ -641,9 +652,11 @@ impl Correction {
     /// band every correction is the identity.
     fn of_bands(
         out: &mut [Self; CAL_BANDS],
+        omni_shift: &mut (f32, f32),
         models: &[BandModel; CAL_BANDS],
         shrinkage: f32,
         max_omni_spread: f32,
+        omni_scale: f32,
     ) {
         // The evidence-weighted mean model (the deviations are linear in the parts).
         let mut mean = BandModel {
@@ -666,8 +679,24 @@ impl Correction {
         if max_omni_spread > 0.0 {
             bound_omni_spread(&mut shared[0], &mean, max_omni_spread);
         }
+        // The omni parts' deviations about their mean: scaled by `omni_scale` as applied, and
+        // left out for the shift they give the features (the mean over the bands; see
+        // `SpeechCheck`).
+        let omni_mean = (shared[0][0] + shared[0][1] + shared[0][2]) / 3.0;
+        let mut without = shared;
+        let mut scaled = shared;
+        for m in 0..CARDIOIDS {
+            without[0][m] = omni_mean;
+            scaled[0][m] = omni_mean + omni_scale * (shared[0][m] - omni_mean);
+        }
+        *omni_shift = (0.0, 0.0);
         for (c, m) in out.iter_mut().zip(models) {
-            *c = Self::of_band(m, &mean, &shared, shrinkage);
+            let full = Self::of_band(m, &mean, &shared, shrinkage);
+            let base = Self::of_band(m, &mean, &without, shrinkage);
+            let (sx, sy) = plane_vector([0, 1, 2].map(|k| full.c0[k] - base.c0[k]));
+            omni_shift.0 += sx * (1.0 / CAL_BANDS as f32);
+            omni_shift.1 += sy * (1.0 / CAL_BANDS as f32);
+            *c = Self::of_band(m, &mean, &scaled, shrinkage);
         }
     }
 
@@ -786,6 +815,14 @@ pub struct CapsuleCalibrationState {
     quiet_ratio: f32,
     accepted: CapsuleEstimate,
     correction: [Correction; CAL_BANDS],
+    /// The shift of the features' plane vector by the omni parts' correction at factor 1 (mean
+    /// over the bands).
+    omni_shift: (f32, f32),
+    /// The factor of the omni parts' correction the talker's frames support.
+    omni_scale: f32,
+    speech: SpeechCheck,
+    /// Speech frames the check has taken.
+    speech_frames: u32,
     forget: f32,
 }
 
@@ -839,6 +876,10 @@ impl CapsuleCalibrationState {
             quiet_ratio: 1.0,
             accepted: CapsuleEstimate::IDEAL,
             correction: [Correction::IDENTITY; CAL_BANDS],
+            omni_shift: (0.0, 0.0),
+            omni_scale: 1.0,
+            speech: SpeechCheck::new(),
+            speech_frames: 0,
             forget: 1.0,
         }
     }
@@ -866,7 +907,7 @@ impl CapsuleCalibrationState {
         frames_per_s: f32,
         start: &CapsuleEstimate,
     ) {
-        *self = Self::idle();
+        // Field by field (`restore` resets the rest): no temporary of the state on the stack.
         self.settings = settings;
         self.bands = BandFloors::new(
             &CAL_BAND_EDGES_HZ,
@@ -890,6 +931,9 @@ impl CapsuleCalibrationState {
             }
             self.sums[band] = BandSums::of_model(&self.accepted.bands[band]);
         }
+        self.omni_scale = 1.0;
+        self.speech.clear();
+        self.speech_frames = 0;
         self.update_corrections();
         self.frame = [BandSums::ZERO; CAL_BANDS];
         self.frame_used = false;
@@ -902,10 +946,59 @@ impl CapsuleCalibrationState {
     fn update_corrections(&mut self) {
         Correction::of_bands(
             &mut self.correction,
+            &mut self.omni_shift,
             &self.accepted.bands,
             self.settings.shrinkage,
             self.settings.max_omni_spread,
+            self.omni_scale,
         );
+    }
+
+    /// Adds a used peak (features `y` from the corrected cardioids) to the talker's check of the
+    /// omni correction ([`SpeechCheck`]).
+    #[inline]
+    pub fn speech_peak(&mut self, y: [f32; CARDIOIDS]) {
+        if self.settings.speech_check {
+            let (vx, vy) = plane_vector(y);
+            let k = self.omni_scale;
+            self.speech
+                .add_peak((vx - k * self.omni_shift.0, vy - k * self.omni_shift.1));
+        }
+    }
+
+    /// Ends the speech check's frame: `speech` says the frame holds speech, `talker_deg` is the
+    /// tracked talker. Every 16 frames the check takes, the factor of the omni
+    /// correction is updated.
+    pub fn end_speech_frame(&mut self, talker_deg: Option<f32>, speech: bool) {
+        if !self.settings.speech_check {
+            return;
+        }
+        // The frame's background share: the bands' floors over their powers.
+        let (mut floor, mut power) = (0.0, 0.0);
+        for b in 0..CAL_BANDS {
+            floor += self.bands.floor(b);
+            power += self.bands.power(b);
+        }
+        let talker = talker_deg.filter(|_| speech);
+        if !self.speech.end_frame(talker, floor / power) {
+            return;
+        }
+        self.speech_frames += 1;
+        if !self.speech_frames.is_multiple_of(CHECK_FRAMES) {
+            return;
+        }
+        let scale = self.speech.scale(self.omni_shift);
+        if (scale - self.omni_scale).abs() > 0.01 {
+            self.omni_scale = scale;
+            self.update_corrections();
+        }
+    }
+
+    /// The factor applied to the omni parts' correction (1 unless the talker's frames show that
+    /// it does not fit his sound).
+    #[must_use]
+    pub fn omni_scale(&self) -> f32 {
+        self.omni_scale
     }
 
     /// The accepted estimate.
@@ -1385,7 +1478,7 @@ mod tests {
         }; CAL_BANDS];
         models[0].peaks = 30.0;
         let mut c = [Correction::IDENTITY; CAL_BANDS];
-        Correction::of_bands(&mut c, &models, 0.2, 0.0);
+        Correction::of_bands(&mut c, &mut (0.0, 0.0), &models, 0.2, 0.0, 1.0);
         // The omni part each correction undoes: a = b·(1 − 2·c0) with the applied b = ½/c1.
         let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
         for band in 0..CAL_BANDS {
@@ -1408,7 +1501,7 @@ mod tests {
             models[band].dipole_part = model.dipole_part.map(|b| 1.0 - b);
         }
         let mut corrections = [Correction::IDENTITY; CAL_BANDS];
-        Correction::of_bands(&mut corrections, &models, 0.2, 0.0);
+        Correction::of_bands(&mut corrections, &mut (0.0, 0.0), &models, 0.2, 0.0, 1.0);
         for c in corrections {
             for m in 0..3 {
                 assert!(
@@ -1431,9 +1524,9 @@ mod tests {
         let models = [source; CAL_BANDS];
         let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
         let mut bounded = [Correction::IDENTITY; CAL_BANDS];
-        Correction::of_bands(&mut bounded, &models, 0.2, 4.0);
+        Correction::of_bands(&mut bounded, &mut (0.0, 0.0), &models, 0.2, 4.0, 1.0);
         let mut free = [Correction::IDENTITY; CAL_BANDS];
-        Correction::of_bands(&mut free, &models, 0.2, 0.0);
+        Correction::of_bands(&mut free, &mut (0.0, 0.0), &models, 0.2, 0.0, 1.0);
         for band in 0..CAL_BANDS {
             let (a, f) = (undone(&bounded[band]), undone(&free[band]));
             let spread = |v: [f32; 3]| v.iter().fold(0.0f32, |m, x| m.max((x - v[0]).abs()));
@@ -1454,9 +1547,39 @@ mod tests {
             imperfect.dipole_part[m] = g * beta;
         }
         let models = [imperfect; CAL_BANDS];
-        Correction::of_bands(&mut bounded, &models, 0.2, 4.0);
-        Correction::of_bands(&mut free, &models, 0.2, 0.0);
+        Correction::of_bands(&mut bounded, &mut (0.0, 0.0), &models, 0.2, 4.0, 1.0);
+        Correction::of_bands(&mut free, &mut (0.0, 0.0), &models, 0.2, 0.0, 1.0);
         assert_eq!(bounded, free);
+    }
+
+    #[test]
+    fn the_omni_scale_scales_the_omni_parts_spread_and_the_shift_is_its_plane_vector() {
+        let model = BandModel {
+            omni_part: [0.6, 0.45, 0.45],
+            dipole_part: [0.5; CARDIOIDS],
+            peaks: 1e6,
+        };
+        let models = [model; CAL_BANDS];
+        let undone = |c: &Correction| [0, 1, 2].map(|m| 0.5 * (1.0 - 2.0 * c.c0[m]) / c.c1[m]);
+        let mut full = [Correction::IDENTITY; CAL_BANDS];
+        let mut shift = (0.0, 0.0);
+        Correction::of_bands(&mut full, &mut shift, &models, 0.2, 0.0, 1.0);
+        let mut none = [Correction::IDENTITY; CAL_BANDS];
+        let mut shift0 = (0.0, 0.0);
+        Correction::of_bands(&mut none, &mut shift0, &models, 0.2, 0.0, 0.0);
+        // The shift does not depend on the factor applied.
+        assert_eq!(shift, shift0);
+        let (a, n) = (undone(&full[0]), undone(&none[0]));
+        assert!((a[0] - a[1] - 0.15).abs() < 0.01, "{a:?}");
+        assert!((n[0] - n[1]).abs() < 1e-5, "{n:?}");
+        // The shift is what the omni correction adds to the features' plane vector: c0 is
+        // −(a − mean)/(2b) per cardioid, plane_vector of (−0.1, 0.05, 0.05) is (−0.15, 0).
+        let d = [0, 1, 2].map(|m| full[0].c0[m] - none[0].c0[m]);
+        assert_eq!(plane_vector(d), shift);
+        assert!(
+            (shift.0 + 0.15).abs() < 0.01 && shift.1.abs() < 1e-5,
+            "{shift:?}"
+        );
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //!
 //! Learned from the frames' spectra between talkers: [`capsule_calibration`] (the blind
 //! self-calibration of the cardioids from the diffuse background and the correction it applies to
-//! the features; settings [`capsule_calibration::CapsuleCalibration`]) and [`background_field`]
+//! the features; settings [`capsule_calibration::CapsuleCalibration`]), checked against the
+//! talker's own sound by [`speech_check`], and [`background_field`]
 //! (the measured stationary background, the noise-field report; settings
 //! [`background_field::BackgroundField`]), both on the per-band floors of [`band_floors`].
 #![no_std]
@@ -11,6 +12,7 @@
 pub mod background_field;
 pub mod band_floors;
 pub mod capsule_calibration;
+pub mod speech_check;
 
 // The modules of the lower crates the stages name at this crate's root.
 use cma_analysis::{features, noise_floor, power_ramp};

@@ -5,7 +5,7 @@
 //! imaginary part of bin 0. [`windowed_spectrum`] unpacks it so that `out[0]` is DC (imaginary 0) and
 //! `out[256]` is Nyquist; the test below pins this quirk down.
 
-use crate::tables::{HAMMING_512, TWIDDLE_512};
+use crate::tables::{HAMMING_512, SINE_QUARTER_512};
 use crate::{FRAME_LEN, NUM_BINS};
 use microfft::Complex32;
 
@@ -109,6 +109,22 @@ pub fn fold_windowed(frame: &[f32; FRAME_LEN], out: &mut [Complex32; NUM_BINS]) 
     out[NUM_BINS - 1] = Complex32::new(0.0, 0.0);
 }
 
+/// (cos, sin) of 2πi/512 (any i, taken mod 512) from the quarter-wave table: 0.5 KB of flash
+/// instead of a full table's 4 KB.
+#[inline(always)]
+#[must_use]
+pub fn twiddle(i: usize) -> [f32; 2] {
+    let i = i & (FRAME_LEN - 1);
+    let r = i & (FRAME_LEN / 4 - 1);
+    let (c, s) = (SINE_QUARTER_512[FRAME_LEN / 4 - r], SINE_QUARTER_512[r]);
+    match i / (FRAME_LEN / 4) {
+        0 => [c, s],
+        1 => [-s, c],
+        2 => [-c, -s],
+        _ => [s, -c],
+    }
+}
+
 /// Bin k (1 ≤ k < 256) of the windowed spectrum of three channels, each folded by
 /// [`fold_windowed`]: the same value as [`windowed_spectrum`]'s bin k up to rounding (a Goertzel
 /// recursion over 32 terms, in Reinsch's form near θ = 0 and π, or for k ≡ 0, 8 mod 16 a direct sum
@@ -123,7 +139,7 @@ pub fn dft_bins3(folds: [&[Complex32; NUM_BINS]; 3], k: usize) -> [Complex32; 3]
         // Real sequence F_0 or F_8: Σ F·cos, Σ F·sin.
         let im = r == 8;
         for n in 0..SIXTEENTH {
-            let [c, s] = TWIDDLE_512[idx];
+            let [c, s] = twiddle(idx);
             idx = (idx + k) & (FRAME_LEN - 1);
             for ch in 0..3 {
                 let f = folds[ch][n];
@@ -143,10 +159,7 @@ pub fn dft_bins3(folds: [&[Complex32; NUM_BINS]; 3], k: usize) -> [Complex32; 3]
     };
     let block = |ch: usize| -> &[Complex32] { &folds[ch][base..base + SIXTEENTH] };
     let blocks = [block(0), block(1), block(2)];
-    let (c, s) = (
-        TWIDDLE_512[k & (FRAME_LEN - 1)][0],
-        TWIDDLE_512[k & (FRAME_LEN - 1)][1],
-    );
+    let [c, s] = twiddle(k);
     // s(N−1), s(N−2) per channel and part.
     let last: [[f32; 4]; 3] = match goertzel_form(k) {
         NEAR_ZERO => goertzel3::<NEAR_ZERO>(blocks, -2.0 * s * s / (1.0 + c)),
@@ -179,7 +192,7 @@ fn goertzel_setup<const M: u8>(k: usize) -> (usize, f32, f32) {
     } else {
         ((16 - r) * SIXTEENTH, -1.0)
     };
-    let [c, s] = TWIDDLE_512[k & (FRAME_LEN - 1)];
+    let [c, s] = twiddle(k);
     let coef = match M {
         NEAR_ZERO => -2.0 * s * s / (1.0 + c),
         NEAR_PI => 2.0 * s * s / (1.0 - c),
@@ -191,8 +204,8 @@ fn goertzel_setup<const M: u8>(k: usize) -> (usize, f32, f32) {
 /// Bin k from the Goertzel recursion's last two states per channel ([`goertzel3`]'s result).
 #[inline(always)]
 fn goertzel_finish(k: usize, sign: f32, last: [[f32; 4]; 3]) -> [Complex32; 3] {
-    let [c, s] = TWIDDLE_512[k & (FRAME_LEN - 1)];
-    let [cn, sn] = TWIDDLE_512[(k * (SIXTEENTH - 1)) & (FRAME_LEN - 1)];
+    let [c, s] = twiddle(k);
+    let [cn, sn] = twiddle(k * (SIXTEENTH - 1));
     core::array::from_fn(|ch| {
         let [g1, g2, h1, h2] = last[ch];
         // y = s(N−1) − (c − js)·s(N−2), s = g + j·sign·h.
@@ -398,6 +411,18 @@ pub fn bin_frequency(k: usize, fs: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn twiddles_from_the_quarter_wave_are_cos_and_sin() {
+        for i in 0..2 * FRAME_LEN {
+            let t = 2.0 * core::f64::consts::PI * i as f64 / FRAME_LEN as f64;
+            let [c, s] = twiddle(i);
+            assert!((f64::from(c) - t.cos()).abs() < 1e-7, "cos at {i}");
+            assert!((f64::from(s) - t.sin()).abs() < 1e-7, "sin at {i}");
+        }
+        assert_eq!(twiddle(0), [1.0, 0.0]);
+        assert_eq!(twiddle(FRAME_LEN / 4), [0.0, 1.0]);
+    }
 
     /// Reference DFT in f64 of the windowed frame.
     fn dft(frame: &[f32; FRAME_LEN], k: usize) -> (f64, f64) {

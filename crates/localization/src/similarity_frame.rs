@@ -274,6 +274,7 @@ impl SimilarityFrame {
             // A background whose curve points somewhere is directional: not learned from.
             let directional = curve_reliability > self.capsules.settings().directional_reliability;
             self.capsules.end_frame(talker, directional);
+            self.capsules.end_speech_frame(talker, gate > 0.5);
         }
         self.diagnostics.num_peaks = n_used;
         self.diagnostics.mean_peak_weight = if n_used > 0 {
@@ -373,6 +374,9 @@ impl SimilarityFrame {
             };
             if !(w > 0.0) {
                 continue;
+            }
+            if calibrating {
+                self.capsules.speech_peak(y);
             }
             let fi = self.bin_rows[k] as usize;
             let Some(slot) = used.get_mut(n_used) else {
@@ -480,6 +484,12 @@ impl SimilarityFrame {
     #[must_use]
     pub fn diagnostics(&self) -> FrameDiagnostics {
         self.diagnostics
+    }
+
+    /// The self-calibration's state.
+    #[must_use]
+    pub fn capsule_state(&self) -> &CapsuleCalibrationState {
+        &self.capsules
     }
 
     /// The self-calibration's current estimate of the cardioids.

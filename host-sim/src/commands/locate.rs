@@ -133,6 +133,13 @@ pub fn run(a: &LocateArgs) -> Result<()> {
                 "{}",
                 selfcal_file::summary(&located.capsules, located.capsule_confidence)
             );
+            if located.capsule_omni_scale < 1.0 {
+                eprintln!(
+                    "self-calibration: {:.0} % of the omni parts' correction applied (the talker's \
+                     sound does not support the rest: a noise source's intensity, not a capsule error)",
+                    100.0 * located.capsule_omni_scale
+                );
+            }
         }
         if let Some(path) = &a.selfcal_out {
             selfcal_file::write(path, &located.capsules)?;

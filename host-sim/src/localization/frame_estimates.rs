@@ -61,6 +61,9 @@ pub struct Located {
     pub capsules: CapsuleEstimate,
     /// Its confidence in [0, 1] (0 when the stage is off).
     pub capsule_confidence: f32,
+    /// The share of the omni parts' correction the talker's sound supports (1 when the stage is
+    /// off or the speech check has not withdrawn any).
+    pub capsule_omni_scale: f32,
     /// The stationary background per band after the last frame
     /// ([`Locator::background_field`]; `None` for a band without evidence).
     pub background: [Option<BackgroundBand>; BG_BANDS],
@@ -90,6 +93,7 @@ pub fn locate_stream_calibrated(
             return Ok(Located {
                 capsules: *run.loc.capsule_estimate(),
                 capsule_confidence: run.loc.capsule_confidence(),
+                capsule_omni_scale: run.loc.capsule_state().omni_scale(),
                 background: run.loc.background_field(),
                 rows: run.rows,
             });
