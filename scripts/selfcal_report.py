@@ -356,6 +356,12 @@ def main():
         )
     lines += [
         "",
+        "What the bound lets through on capsules matched within a few tenths of a dB (small pattern",
+        "spreads, so a small bound), the talker's own frames withdraw: an omni error moves his sound",
+        "as it moves the background, a source does not (`capsule_calibration.speech_check`, on by",
+        "default; the `loudspeaker_matched` kind of [validation.md](validation.md); the measurements",
+        "in [history.md](history.md)).",
+        "",
         "The default is set for the ideal array and the eval folder (the claims below); for a board whose",
         "capsules are known to be imperfect and that must be right within seconds of a cold start, without",
         "a stored estimate (docs/warm-start.md), the table shows what a lower value gains and costs.",

@@ -17,6 +17,11 @@
 //! component): the intercept c is the talker's own offset across his direction at no distance and
 //! no background — the part of an omni error that turns his direction.
 //!
+//! Only frames whose own estimate lies within 60° of the track count (the locator's caller
+//! checks): a talker who has moved, before the track has followed him, is on another line. Where
+//! p varies only with σ (no reverberation: p = ¾·(1 − σ) in an anechoic room), the two
+//! regressors are one and the fit is made on p alone.
+//!
 //! The background's correction shifts every v by s. A real capsule error has c ≈ −s⊥ (the
 //! talker's sound needs the correction); a source's intensity taken for one has c ≈ 0. The check
 //! fits the factor κ of s that makes the sectors' offsets vanish and, where the fit is clearly
@@ -38,6 +43,12 @@ const SIN_120: f32 = 0.866_025_4;
 
 /// Speech frames a sector needs before its offset counts.
 const MIN_SECTOR_FRAMES: f32 = 50.0;
+
+/// Least 1 − r² of p and σ (r their correlation) for the fit with σ: where the talker's distance
+/// along his line varies only with the background share (no reverberation: an anechoic room, or
+/// a talker near the array), the two regressors are one and the intercept is not determined; the
+/// fit is then made on p alone.
+const MIN_INDEPENDENCE: f32 = 0.2;
 
 /// Weight (speech frames of the shift's size) of the prior κ = 1.
 const PRIOR_FRAMES: f32 = 50.0;
@@ -85,7 +96,7 @@ fn offset(t: &SectorSums) -> Option<f32> {
     }
     let det = a11 * a22 - a12 * a12;
     // Without a spread of σ (a quiet background) the fit on p alone.
-    let (b1, b2) = if det > 1e-3 * a11 * a22 && a22 > 1e-9 {
+    let (b1, b2) = if det > MIN_INDEPENDENCE * a11 * a22 && a22 > 1e-9 {
         ((r1 * a22 - r2 * a12) / det, (r2 * a11 - r1 * a12) / det)
     } else {
         (r1 / a11, 0.0)

@@ -270,22 +270,27 @@ impl SimilarityFrame {
         }
         let (b, curve_reliability) =
             self.reliability(q, gate, n_used, weight_sum, &frame[0], flags);
+        let raw = if n_used > 0 {
+            argmax_parabolic(&self.curve[..q], table.azimuths_deg()).map(|(a, _)| a)
+        } else {
+            None
+        };
         if calibrating {
             // A background whose curve points somewhere is directional: not learned from.
             let directional = curve_reliability > self.capsules.settings().directional_reliability;
             self.capsules.end_frame(talker, directional);
-            self.capsules.end_speech_frame(talker, gate > 0.5);
+            // The talker's frames for the speech check: speech whose own estimate lies within 60°
+            // of his track (not the frames of a talker the track has not yet followed to a new
+            // place).
+            let near = |t: f32| raw.is_some_and(|r| crate::angle::wrap_deg(r - t).abs() <= 60.0);
+            self.capsules
+                .end_speech_frame(talker.filter(|t| near(*t)), gate > 0.5);
         }
         self.diagnostics.num_peaks = n_used;
         self.diagnostics.mean_peak_weight = if n_used > 0 {
             weight_sum / n_used as f32
         } else {
             0.0
-        };
-        let raw = if n_used > 0 {
-            argmax_parabolic(&self.curve[..q], table.azimuths_deg()).map(|(a, _)| a)
-        } else {
-            None
         };
         FrameResult {
             b,
