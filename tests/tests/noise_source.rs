@@ -11,26 +11,37 @@ const TALKER_DEG: f64 = 30.0;
 
 /// The scene with the loudspeaker at `source` degrees.
 fn loudspeaker_scene(dir: &Path, source: &str) -> PathBuf {
-    make_scene(
-        dir,
-        &format!("loudspeaker{source}.wav"),
-        &[
-            "--synth",
-            "12",
-            "--azimuth",
-            "30",
-            "--room",
-            "6x5x3:0.45",
-            "--distance",
-            "1.5",
-            "--snr",
-            "30",
-            "--seed",
-            "4",
-            "--noise-source",
-            &format!("white,az={source},el=0,dist=2,level=-10"),
-        ],
-    )
+    scene_with_loudspeaker(dir, &format!("loudspeaker{source}.wav"), "12", source, &[])
+}
+
+/// `seconds` of the talker beside the loudspeaker at `source` degrees, with the scene flags
+/// `extra` (a capsule draw).
+fn scene_with_loudspeaker(
+    dir: &Path,
+    name: &str,
+    seconds: &str,
+    source: &str,
+    extra: &[&str],
+) -> PathBuf {
+    let loudspeaker = format!("white,az={source},el=0,dist=2,level=-10");
+    let mut args = vec![
+        "--synth",
+        seconds,
+        "--azimuth",
+        "30",
+        "--room",
+        "6x5x3:0.45",
+        "--distance",
+        "1.5",
+        "--snr",
+        "30",
+        "--seed",
+        "4",
+        "--noise-source",
+        &loudspeaker,
+    ];
+    args.extend_from_slice(extra);
+    make_scene(dir, name, &args)
 }
 
 /// Mean absolute error of `wav` localized with `extra` flags, after its first second.
@@ -107,27 +118,16 @@ fn a_source_learned_as_a_matched_arrays_capsule_error_is_withdrawn_by_the_talker
     .into_iter()
     .enumerate()
     {
-        let wav = make_scene(
+        let (gains, betas) = (
+            format!("--capsule-gain-db={gains}"),
+            format!("--capsule-beta={betas}"),
+        );
+        let wav = scene_with_loudspeaker(
             dir.path(),
             &format!("matched{i}.wav"),
-            &[
-                "--synth",
-                "24",
-                "--azimuth",
-                "30",
-                "--room",
-                "6x5x3:0.45",
-                "--distance",
-                "1.5",
-                "--snr",
-                "30",
-                "--seed",
-                "4",
-                "--noise-source",
-                "white,az=120,el=0,dist=2,level=-10",
-                &format!("--capsule-gain-db={gains}"),
-                &format!("--capsule-beta={betas}"),
-            ],
+            "24",
+            "120",
+            &[&gains, &betas],
         );
         let with = mae_after_1s(&wav, &["-q"]);
         let without = mae_after_1s(&wav, &["--config", &unchecked, "-q"]);

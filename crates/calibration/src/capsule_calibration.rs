@@ -96,8 +96,9 @@
 //! corrections; the speech check's per-peak and per-frame sums ([`crate::speech_check`]).
 
 use crate::band_floors::BandFloors;
+use crate::bformat::plane_vector;
 use crate::power_ramp::power_ratio_from_db;
-use crate::speech_check::{plane_vector, SpeechCheck};
+use crate::speech_check::SpeechCheck;
 use crate::{CARDIOIDS, NUM_BINS};
 use microfft::Complex32;
 
@@ -973,14 +974,20 @@ impl CapsuleCalibrationState {
         if !self.settings.speech_check {
             return;
         }
-        // The frame's background share: the bands' floors over their powers.
-        let (mut floor, mut power) = (0.0, 0.0);
-        for b in 0..CAL_BANDS {
-            floor += self.bands.floor(b);
-            power += self.bands.power(b);
-        }
         let talker = talker_deg.filter(|_| speech);
-        if !self.speech.end_frame(talker, floor / power) {
+        // The frame's background share (of a frame the check takes): the bands' floors over
+        // their powers.
+        let share = if talker.is_some() {
+            let (mut floor, mut power) = (0.0, 0.0);
+            for b in 0..CAL_BANDS {
+                floor += self.bands.floor(b);
+                power += self.bands.power(b);
+            }
+            floor / power
+        } else {
+            f32::NAN
+        };
+        if !self.speech.end_frame(talker, share) {
             return;
         }
         self.speech_frames += 1;

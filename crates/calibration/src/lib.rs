@@ -16,7 +16,7 @@ pub mod speech_check;
 
 // The modules of the lower crates the stages name at this crate's root.
 use cma_analysis::{features, noise_floor, power_ramp};
-use cma_dsp::{fast_math, spectrum, trig};
+use cma_dsp::{bformat, fast_math, spectrum, trig};
 #[cfg(test)]
 use cma_dsp::{tables, test_rng, HOP};
 use cma_dsp::{CARDIOIDS, FRAME_LEN, NUM_BINS};

@@ -33,13 +33,9 @@
 //! 2 × 2 solve per sector.
 
 use crate::trig::sin_cos;
-use crate::CARDIOIDS;
 
 /// Number of sectors of the talker's direction with their own regression.
 pub const SECTORS: usize = 6;
-
-/// sin 120°.
-const SIN_120: f32 = 0.866_025_4;
 
 /// Speech frames a sector needs before its offset counts.
 const MIN_SECTOR_FRAMES: f32 = 50.0;
@@ -62,13 +58,6 @@ const KEEP_ABOVE: f32 = 0.6;
 
 /// A fitted κ at or below this is applied as it is.
 const WITHDRAW_BELOW: f32 = 0.45;
-
-/// The plane vector Σ_m y_m·(cos φ_m, sin φ_m) of three cardioid values (looks 0°, 120°, 240°).
-#[inline]
-#[must_use]
-pub fn plane_vector(y: [f32; CARDIOIDS]) -> (f32, f32) {
-    (y[0] - 0.5 * (y[1] + y[2]), SIN_120 * (y[1] - y[2]))
-}
 
 /// One sector's forgetting sums of its frames' (p, q, σ) and across-track direction n: Σ1, Σp,
 /// Σq, Σσ, Σp², Σpσ, Σσ², Σpq, Σσq, Σn_x, Σn_y, with p and q the frame's mean plane vector along

@@ -31,6 +31,14 @@ pub fn xy_complex(c: [Complex32; 3]) -> [Complex32; 2] {
     [x * (4.0 / 3.0), y * (4.0 / 3.0)]
 }
 
+/// The plane vector Σ_m c_m·(cos φ_m, sin φ_m) of three cardioid values (e.g. a peak's active
+/// ratios: ¾ times the unit vector of one plane wave's direction); ¾ of [`wxy_real`]'s (X, Y).
+#[inline]
+#[must_use]
+pub fn plane_vector(c: [f32; 3]) -> (f32, f32) {
+    (c[0] - 0.5 * (c[1] + c[2]), SIN_LOOK[1] * (c[1] - c[2]))
+}
+
 /// Active intensity components (Re{W*·X}, Re{W*·Y}) of one bin (eq. 4.33).
 #[inline]
 #[must_use]

@@ -20,5 +20,5 @@ pub mod running_curve;
 #[cfg(test)]
 use cma_dsp::test_rng;
 use cma_dsp::MAX_AZIMUTHS;
-use cma_dsp::{angle, estimate, fast_exp, fast_math, trig};
+use cma_dsp::{angle, bformat, estimate, fast_exp, fast_math, trig};
 use cma_localization::{curve_kernel, interpolation, reliability, similarity};

@@ -54,6 +54,7 @@
 //! Work per frame is bounded: O(peaks × (tracks + candidates)) dot products, three `atan2` and at
 //! most one `sin`/`cos` pair. No heap; no input can panic (non-finite features are skipped).
 
+use crate::bformat::plane_vector;
 use crate::fast_math::sqrtf;
 use crate::similarity::PeakFeature;
 
@@ -64,8 +65,6 @@ pub const MAX_CANDIDATES: usize = 4;
 
 /// |v| of a single plane wave's peak: ¾ (see the module documentation).
 const PLANE_WAVE_LENGTH: f32 = 0.75;
-/// sin 120°.
-const SIN_120: f32 = 0.866_025_4;
 
 /// Settings of the multi-talker tracker (plain values; frames are analysis hops).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -307,9 +306,7 @@ impl Default for MultiTrackState {
 /// Unit vector and weight of a peak's direction, `None` for a non-finite or direction-less peak.
 #[inline]
 fn observation(p: &PeakFeature) -> Option<(f32, f32, f32)> {
-    let [a, b, c] = p.y;
-    let vx = a - 0.5 * (b + c);
-    let vy = SIN_120 * (b - c);
+    let (vx, vy) = plane_vector(p.y);
     let r2 = vx * vx + vy * vy;
     if !(r2 > 1e-12) || !r2.is_finite() || !(p.weight > 0.0) || !p.weight.is_finite() {
         return None;
