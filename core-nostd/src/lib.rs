@@ -58,7 +58,7 @@
 //! | 12 | frame onset weight of b | `cma-localization` · [`frame_onset`] | `frame_onset`: [`frame_onset::FrameOnset`] |
 //! | — | steps 6–11 on one frame | `cma-localization` · [`similarity_frame`] | [`similarity_frame::SimilaritySettings`] ([`LocatorConfig::similarity_settings`]) |
 //! | 13 | tracking: one-pole filter or grid tracker (velocity from the [`motion_fit`]), argmax | `cma-tracking` · [`curve_tracker`], [`grid_tracker`], [`motion_fit`], [`running_curve`], [`refine_curve`]; [`interpolation`] | `tracking`: [`curve_tracker::Tracking`] |
-//! | 14 | several talkers | `cma-tracking` · [`multi_track`] | `multi_track`: [`multi_track::MultiTrack`] |
+//! | 14 | several talkers; their utterance spans, decided a fixed time late | `cma-tracking` · [`multi_track`], [`track_spans`] | `multi_track`: [`multi_track::MultiTrack`] |
 //! | — | thesis options: rule 2, Cartesian filter | `cma-reference` · [`combination`], [`cartesian_filter`], [`alternative_result`] | `alternative`: [`alternative_result::AlternativeSettings`] |
 //! | — | baselines TDIV / FDIV | `cma-reference` · [`tdiv`], [`fdiv`], [`intensity`] | `method`: [`Method`]; `intensity`: [`intensity::IntensitySettings`] |
 //! | — | host studies: beamformer, distance | `cma-reference` · [`beamformer`], [`distance`] | — |
@@ -98,6 +98,7 @@ pub use cma_reference::{
 };
 pub use cma_tracking::{
     curve_tracker, grid_tracker, motion_fit, multi_track, refine_curve, running_curve,
+    track_spans,
 };
 
 pub use cma_dsp::{

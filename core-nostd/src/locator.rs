@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! [f32; 4] ─ FrontEnd ─ FrameLevel ─┬─ Similarity: SimilarityFrame ─ CurveTracker ─ (AlternativeResult)
-//!                                   │              ─ (MultiTrackState)
+//!                                   │              ─ (MultiTrackState ─ TrackSpans)
 //!                                   └─ FDIV / TDIV: IntensityVector
 //! ```
 //!
@@ -12,8 +12,9 @@
 //! peaks → features → curve → reliability b), [`crate::noise_floor`] and [`crate::frame_onset`]
 //! (weights of b), [`crate::curve_tracker`] (one-pole filter or grid
 //! tracker), [`crate::alternative_result`] (thesis options), [`crate::multi_track`] and
-//! [`crate::intensity`] (the baselines). The thesis options and the baselines are fields of the
-//! localizer only with the `thesis-options` feature.
+//! [`crate::track_spans`] (several talkers) and [`crate::intensity`] (the baselines). The thesis
+//! options and the baselines are fields of the localizer only with the `thesis-options` feature,
+//! the talker tracks only with `multi-talker`.
 //!
 //! The same code runs on the host (`host-sim`) and on the Cortex-M4F (`firmware`): feed it whatever
 //! block size the DMA delivers.
@@ -35,7 +36,11 @@ use crate::front_end::FrontEnd;
 use crate::input_guard::InputGuard;
 #[cfg(feature = "thesis-options")]
 use crate::intensity::IntensityVector;
-use crate::multi_track::{MultiTrackState, TalkerTrack};
+#[cfg(feature = "multi-talker")]
+use crate::multi_track::MultiTrackState;
+#[cfg(feature = "multi-talker")]
+use crate::track_spans::TrackSpans;
+use crate::track_spans::TrackFrame;
 use crate::noise_floor::NoiseFloor;
 use crate::reference_table::ReferenceTable;
 use crate::similarity::PeakFeature;
@@ -73,7 +78,11 @@ pub struct Locator<'t> {
     #[cfg(feature = "thesis-options")]
     intensity: IntensityVector,
     /// Talker tracks of the multi-talker stage.
+    #[cfg(feature = "multi-talker")]
     multi: MultiTrackState,
+    /// The talker tracks' utterance spans, decided a fixed number of frames late.
+    #[cfg(feature = "multi-talker")]
+    spans: TrackSpans,
 }
 
 impl<'t> Locator<'t> {
@@ -134,7 +143,10 @@ impl<'t> Locator<'t> {
                 alternative: _,
             #[cfg(feature = "thesis-options")]
                 intensity: _,
-            multi: _,
+            #[cfg(feature = "multi-talker")]
+                multi: _,
+            #[cfg(feature = "multi-talker")]
+                spans: _,
         };
         let p = slot.as_mut_ptr();
         // Note(unsafe): `p` points to memory valid for a `Self` (the slot); each field is written
@@ -157,7 +169,10 @@ impl<'t> Locator<'t> {
             addr_of_mut!((*p).alternative).write(AlternativeResult::new());
             #[cfg(feature = "thesis-options")]
             addr_of_mut!((*p).intensity).write(IntensityVector::new());
+            #[cfg(feature = "multi-talker")]
             addr_of_mut!((*p).multi).write(MultiTrackState::new());
+            #[cfg(feature = "multi-talker")]
+            addr_of_mut!((*p).spans).write(TrackSpans::new());
             slot.assume_init_mut()
         }
     }
@@ -182,7 +197,10 @@ impl<'t> Locator<'t> {
             alternative: AlternativeResult::new(),
             #[cfg(feature = "thesis-options")]
             intensity: IntensityVector::new(),
+            #[cfg(feature = "multi-talker")]
             multi: MultiTrackState::new(),
+            #[cfg(feature = "multi-talker")]
+            spans: TrackSpans::new(),
         }
     }
 
@@ -205,7 +223,11 @@ impl<'t> Locator<'t> {
             self.alternative = AlternativeResult::new();
             self.intensity.reset();
         }
-        self.multi = MultiTrackState::new();
+        #[cfg(feature = "multi-talker")]
+        {
+            self.multi = MultiTrackState::new();
+            self.spans = TrackSpans::new();
+        }
         self.reset_configured_state();
         Ok(())
     }
@@ -329,10 +351,39 @@ impl<'t> Locator<'t> {
         self.similarity.background_field().summary()
     }
 
-    /// The multi-talker tracks after the last frame (live tracks, active or not; none when the
-    /// stage is off).
-    pub fn talker_tracks(&self) -> impl Iterator<Item = TalkerTrack> + '_ {
-        self.multi.tracks()
+    /// The multi-talker tracks of the frame decided after the last frame: with
+    /// `multi_track.span_gap_frames` = n > 0, the tracks of the frame n frames before the last
+    /// (`None` before the first n frames; [`crate::track_spans`]), else of the last frame. Every
+    /// live track, active or not. `None` when the stage is off or not built (feature
+    /// `multi-talker`).
+    #[must_use]
+    pub fn talker_tracks(&self) -> Option<TrackFrame> {
+        #[cfg(feature = "multi-talker")]
+        if self.config.multi_track.enabled {
+            return self.spans.decided().copied();
+        }
+        None
+    }
+
+    /// At the end of the input, the tracks of the next frame not yet reported by
+    /// [`Locator::talker_tracks`], decided as if no talker spoke after the last frame; `None` once
+    /// every frame has been reported. Call it until `None`.
+    pub fn flush_talker_tracks(&mut self) -> Option<TrackFrame> {
+        #[cfg(feature = "multi-talker")]
+        if self.config.multi_track.enabled {
+            return self.spans.flush(&self.config.multi_track);
+        }
+        None
+    }
+
+    /// Time of the centre of analysis frame `index` in input samples (an estimate's
+    /// `centre_sample`).
+    #[must_use]
+    pub fn centre_sample(&self, index: u32) -> u64 {
+        let factor = self.front.decimator().factor() as i64;
+        let centre2 =
+            self.offset2 + factor * (2 * i64::from(index) * HOP as i64 + FRAME_LEN as i64 - 1);
+        ((centre2 + 1) / 2).max(0) as u64
     }
 
     /// Sets the estimate the self-calibration starts from (a saved [`CapsuleEstimate`]) and applies
@@ -382,7 +433,7 @@ impl<'t> Locator<'t> {
             &mut flags,
         );
         let (azimuth, raw, confidence) = match self.config.method {
-            Method::Similarity => self.similarity_frame(&level, &mut flags),
+            Method::Similarity => self.similarity_frame(index, &level, &mut flags),
             #[cfg(feature = "thesis-options")]
             Method::Fdiv | Method::Tdiv => {
                 let iv =
@@ -398,12 +449,9 @@ impl<'t> Locator<'t> {
             #[cfg(not(feature = "thesis-options"))]
             Method::Fdiv | Method::Tdiv => (0.0, 0.0, 0.0),
         };
-        let factor = self.front.decimator().factor() as i64;
-        let centre2 =
-            self.offset2 + factor * (2 * index as i64 * HOP as i64 + FRAME_LEN as i64 - 1);
         Estimate {
             frame_index: index,
-            centre_sample: ((centre2 + 1) / 2).max(0) as u64,
+            centre_sample: self.centre_sample(index),
             azimuth_deg: wrap_deg(azimuth),
             azimuth_raw_deg: wrap_deg(raw),
             confidence,
@@ -415,7 +463,12 @@ impl<'t> Locator<'t> {
     /// The similarity method on the current frame; returns (azimuth, raw azimuth, b). The frame
     /// onset weight scales b everywhere except in the tracker's velocity estimate (why:
     /// [`crate::frame_onset`]).
-    fn similarity_frame(&mut self, level: &Level, flags: &mut Flags) -> (f32, f32, f32) {
+    fn similarity_frame(
+        &mut self,
+        index: u32,
+        level: &Level,
+        flags: &mut Flags,
+    ) -> (f32, f32, f32) {
         let (gate, onset) = self.similarity_gates(level);
         let c = &self.config;
         // The frame's usable peaks: per-frame scratch on the stack (static RAM is the scarcer).
@@ -472,7 +525,11 @@ impl<'t> Locator<'t> {
             let dominant = self.tracker.talker().map(|a| (a, b));
             let peaks = &used[..frame.num_peaks];
             self.multi.update(&c.multi_track, peaks, gate, dominant);
+            self.spans
+                .push(&c.multi_track, index, self.multi.slot_tracks());
         }
+        #[cfg(not(feature = "multi-talker"))]
+        let _ = index;
         (azimuth, raw.unwrap_or(azimuth), b)
     }
 

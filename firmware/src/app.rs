@@ -276,9 +276,10 @@ async fn dsp_task(
             estimated = Some(e.centre_sample);
         });
         // A block (32 sample frames) completes at most one hop (256), so these are the tracks
-        // of that estimate.
-        if let (true, Some(centre_sample)) = (MULTI_TALKER, estimated) {
-            let tracks = TracksLine::from_tracks(locator.talker_tracks(), 0, centre_sample);
+        // the core decided after that estimate (those of an earlier frame, `t` says which).
+        if let (true, Some(_), Some(decided)) = (MULTI_TALKER, estimated, locator.talker_tracks()) {
+            let t = locator.centre_sample(decided.frame_index);
+            let tracks = TracksLine::from_tracks(decided.tracks(), 0, t);
             if OUTGOING.try_send(Outgoing::Tracks(tracks)).is_err() {
                 COUNTERS.count_dropped();
             }

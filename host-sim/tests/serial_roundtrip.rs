@@ -481,8 +481,28 @@ fn emit_to_monitor_carries_track_lines() {
             _ => None,
         })
         .collect();
-    assert_eq!(tracks.len(), frames(&sent).len());
+    // A track line follows every frame line once the first frame's activity is decided, and
+    // holds the tracks of the frame `span_gap_frames` frame lines earlier.
+    let gap = cma_core::multi_track::MultiTrack::DEFAULT.span_gap_frames as usize;
+    let sent_frames = frames(&sent);
+    assert_eq!(tracks.len(), sent_frames.len() - gap);
     assert!(tracks.iter().enumerate().all(|(i, t)| t.seq == i as u32));
+    assert!(tracks
+        .iter()
+        .zip(&sent_frames)
+        .all(|(t, f)| t.centre_sample == f.centre_sample));
+    let mut frame_lines = 0;
+    for l in &sent {
+        match l {
+            Line::Frame(_) => frame_lines += 1,
+            Line::Tracks(t) => assert_eq!(
+                frame_lines,
+                t.seq as usize + gap + 1,
+                "a track line follows the frame line that decided it"
+            ),
+            _ => {}
+        }
+    }
     let ids: BTreeSet<u16> = tracks
         .iter()
         .flat_map(|t| t.active().iter().map(|k| k.id))

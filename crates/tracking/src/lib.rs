@@ -5,7 +5,8 @@
 //! Bayesian [`grid_tracker`] (settings [`grid_tracker::GridTracker`]), which places its estimate
 //! between grid points with [`running_curve`] and [`refine_curve`] and follows a moving talker
 //! through his pauses with [`motion_fit`]. Several talkers at once:
-//! [`multi_track`] (tracks with persistent IDs; settings [`multi_track::MultiTrack`]).
+//! [`multi_track`] (tracks with persistent IDs; settings [`multi_track::MultiTrack`]), reported
+//! over whole utterances a fixed time late by [`track_spans`].
 #![no_std]
 #![deny(clippy::float_cmp_const)]
 
@@ -15,6 +16,7 @@ pub mod motion_fit;
 pub mod multi_track;
 pub mod refine_curve;
 pub mod running_curve;
+pub mod track_spans;
 
 // The modules of the lower crates the stages name at this crate's root.
 #[cfg(test)]

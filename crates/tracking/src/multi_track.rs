@@ -96,10 +96,12 @@ pub struct MultiTrack {
     /// track longer in a reverberant room).
     pub own_off: f32,
     /// Share of the track's own peak activity below which a track whose evidence is falling
-    /// becomes inactive, loudest or not: the hangover after the last talker's utterance is then
+    /// becomes inactive, loudest or not: the release after the last talker's utterance is then
     /// about ln(share)/ln(`activity_pole`) frames instead of the time its activity takes to fall
-    /// to `active_on` (measured: 0.3 s and more in rooms of little reverberation, most of it
-    /// past the scoring collar; 0.15 keeps the pauses inside an utterance active).
+    /// to `active_on`. The release is quick (0.4: 9 frames) because [`crate::track_spans`]
+    /// bridges the pauses inside an utterance afterwards; without it (`span_gap_frames = 0`)
+    /// 0.15 keeps them active (measured on the validation's conversations: with 0.15 and no span
+    /// decision, span precision 90.8 %, most of the false frames in the 0.3 s after an utterance).
     pub tail_off: f32,
     /// Pole of the decay of a track's peak activity, per frame.
     pub peak_pole: f32,
@@ -139,6 +141,14 @@ pub struct MultiTrack {
     /// after it (0: no hold). Measured: 20 (0.32 s) raised the recall of two talkers speaking at
     /// once from 87 to 97–98 % on the validation's scenes, 40 cost turn-taking precision.
     pub overlap_hold_frames: u32,
+    /// Pauses of at most this many frames between two active frames of a track are reported
+    /// active, and the tracks are reported this many frames late, when the frames after a pause
+    /// have shown whether the talker went on ([`crate::track_spans`]; at most
+    /// [`crate::track_spans::MAX_SPAN_FRAMES`]; 0: the tracker's own activity, without delay).
+    pub span_gap_frames: u32,
+    /// Bursts of activity shorter than this (pauses closed) are not reported active (at most
+    /// `span_gap_frames`; 0 or 1: every burst is).
+    pub span_min_frames: u32,
     /// Inactive frames after which a track ends.
     pub death_frames: u32,
     /// Inactive frames after which a track's slot may be taken by a new track when none is free.
@@ -162,8 +172,8 @@ impl MultiTrack {
         active_on: 0.05,
         active_off: 0.03,
         relative_on: 0.35,
-        own_off: 0.3,
-        tail_off: 0.15,
+        own_off: 0.4,
+        tail_off: 0.4,
         peak_pole: 0.998,
         azimuth_gain: 0.3,
         anchor_gain: 0.3,
@@ -175,13 +185,16 @@ impl MultiTrack {
         talker_level: 0.1,
         hold_evidence: 0.3,
         overlap_hold_frames: 20,
+        span_gap_frames: 12,
+        span_min_frames: 8,
         death_frames: 3000,
         replace_frames: 150,
     };
 
     /// Whether the settings are usable: finite; gates and separation in (0, 180]; poles in [0, 1);
     /// gains, `talker_level` and `hold_evidence` in [0, 1]; 0 ≤ `active_off` ≤ `active_on` ≤ 1;
-    /// birth mass > 0.
+    /// birth mass > 0; `span_gap_frames` ≤ [`crate::track_spans::MAX_SPAN_FRAMES`] and
+    /// `span_min_frames` ≤ `span_gap_frames` (or 1).
     #[must_use]
     pub fn is_valid(&self) -> bool {
         let angle = |a: f32| a > 0.0 && a <= 180.0;
@@ -207,6 +220,8 @@ impl MultiTrack {
             && self.active_on <= 1.0
             && self.birth_mass > 0.0
             && self.birth_mass.is_finite()
+            && self.span_gap_frames as usize <= crate::track_spans::MAX_SPAN_FRAMES
+            && self.span_min_frames <= self.span_gap_frames.max(1)
     }
 }
 
@@ -352,6 +367,19 @@ impl MultiTrackState {
             azimuth_deg: s.azimuth_deg,
             confidence: s.activity.clamp(0.0, 1.0),
             active: s.active,
+        })
+    }
+
+    /// The live tracks (active or not) by slot: a track keeps its slot while it lives.
+    #[must_use]
+    pub fn slot_tracks(&self) -> [Option<TalkerTrack>; MAX_TRACKS] {
+        self.slots.map(|s| {
+            s.live.then_some(TalkerTrack {
+                id: s.id,
+                azimuth_deg: s.azimuth_deg,
+                confidence: s.activity.clamp(0.0, 1.0),
+                active: s.active,
+            })
         })
     }
 
@@ -752,7 +780,8 @@ mod tests {
     #[test]
     fn a_talker_the_single_estimate_hears_is_born_though_his_peaks_scatter() {
         // Talker A at 40° has a track; talker B at -100° then speaks, his peaks scattered over
-        // the circle (no cluster holds enough of them), the single estimate on him.
+        // the circle (no cluster holds enough of them), the single estimate on him. His track
+        // is born near him (the scattered peaks then pull it about a little).
         let run = |cfg: &MultiTrack| {
             let mut s = MultiTrackState::new();
             for _ in 0..60 {
@@ -770,7 +799,7 @@ mod tests {
         assert!(with.tracks().any(|t| t.id == 1), "talker A keeps his track");
         let b = with
             .tracks()
-            .find(|t| crate::angle::wrap_deg(t.azimuth_deg + 100.0).abs() < 10.0);
+            .find(|t| crate::angle::wrap_deg(t.azimuth_deg + 100.0).abs() < 15.0);
         assert!(b.is_some(), "{:?}", with.tracks().collect::<Vec<_>>());
         let without = run(&MultiTrack {
             estimate_birth_gain: 0.0,
@@ -779,7 +808,7 @@ mod tests {
         assert!(
             without
                 .tracks()
-                .all(|t| crate::angle::wrap_deg(t.azimuth_deg + 100.0).abs() >= 10.0),
+                .all(|t| crate::angle::wrap_deg(t.azimuth_deg + 100.0).abs() >= 15.0),
             "{:?}",
             without.tracks().collect::<Vec<_>>()
         );

@@ -102,13 +102,19 @@ pub fn track_frames(
             source,
         })?;
     let mut out = Vec::with_capacity(rec.frames.len() / 256 + 1);
+    let take = |loc: &Locator<'_>, f: cma_core::track_spans::TrackFrame| TrackFrame {
+        t_s: loc.centre_sample(f.frame_index) as f64 / f64::from(rec.rate),
+        tracks: f.tracks().collect(),
+    };
     for x in &rec.frames {
-        if let Some(e) = loc.process_sample(*x) {
-            out.push(TrackFrame {
-                t_s: e.time_s(rec.rate),
-                tracks: loc.talker_tracks().collect(),
-            });
+        if loc.process_sample(*x).is_some() {
+            if let Some(f) = loc.talker_tracks() {
+                out.push(take(&loc, f));
+            }
         }
+    }
+    while let Some(f) = loc.flush_talker_tracks() {
+        out.push(take(&loc, f));
     }
     Ok(out)
 }

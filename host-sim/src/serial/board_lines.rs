@@ -4,7 +4,10 @@
 //! the recording); and, like the firmware, a calibration line (the self-calibration's state) before
 //! the first frame line and then every [`CALIBRATION_PERIOD_S`](cma_core::wire::CALIBRATION_PERIOD_S) seconds
 //! of the recording ([`CalibrationSchedule`]), after the frame line that made it due. With the
-//! multi-talker tracks on, a track line follows every frame line. Like the firmware, a background
+//! multi-talker tracks on, a track line follows every frame line once the tracks' spans are
+//! decided: it holds the tracks of the frame `multi_track.span_gap_frames` frames earlier (its `t`
+//! says which; the last frames' tracks are not sent, as a board decides them only when the next
+//! frames come). Like the firmware, a background
 //! line (the stationary background per band) follows the frame line (and track line) of the
 //! estimate after each calibration line: one hop later, so that the two never share a hop.
 
@@ -78,12 +81,14 @@ pub fn lines(
             };
             out.push(Line::Frame(Frame::from_estimate(&e, seq, rec.rate, 0, 0)));
             seq = seq.wrapping_add(1);
-            out.push(Line::Tracks(TracksLine::from_tracks(
-                loc.talker_tracks(),
-                tracks_seq,
-                e.centre_sample,
-            )));
-            tracks_seq = tracks_seq.wrapping_add(1);
+            if let Some(f) = loc.talker_tracks() {
+                out.push(Line::Tracks(TracksLine::from_tracks(
+                    f.tracks(),
+                    tracks_seq,
+                    loc.centre_sample(f.frame_index),
+                )));
+                tracks_seq = tracks_seq.wrapping_add(1);
+            }
             if std::mem::take(&mut background_due) {
                 background(&loc, e.centre_sample, &mut out);
             }

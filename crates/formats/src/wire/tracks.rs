@@ -1,6 +1,7 @@
 //! The track line: the active multi-talker tracks ([`TalkerTrack`]) of one analysis frame as one
-//! ASCII line, sent by a board with the multi-talker stage on after the frame line of the same
-//! estimate. Version 1, byte by byte:
+//! ASCII line, sent by a board with the multi-talker stage on after each frame line, for the frame
+//! whose activity the core decided then (`multi_track.span_gap_frames` frames earlier, see
+//! `cma_tracking::track_spans`; `t` names it). Version 1, byte by byte:
 //!
 //! ```text
 //! $TRK,<ver>,<seq>,<t>,<n>[,<id>,<az>,<conf>]…*<crc>\r\n      (n times the bracket)
@@ -13,7 +14,7 @@
 //! | `,`      | field separator (0x2C), between every two fields (4 + 3·n fields after the tag)       |
 //! | `ver`    | version of the track line, `1` ([`TRACKS_VERSION`])                                   |
 //! | `seq`    | track lines sent, `u32` decimal, +1 per line, wraps; its own count, not the frames'   |
-//! | `t`      | `centre_sample` of the estimate whose tracks these are (the frame line's `t`), `u64`  |
+//! | `t`      | `centre_sample` of the estimate whose tracks these are (that frame line's `t`), `u64` |
 //! | `n`      | number of active tracks that follow, `0..=`[`MAX_TRACKS`]                              |
 //! | `id`     | per track: persistent ID, `1..=65535`; the IDs of a line differ                       |
 //! | `az`     | per track: azimuth in tenths of a degree, `-1799..=1800`, as the frame line's `az`    |
