@@ -16,6 +16,9 @@ use crate::frame_quality::FrameQuality;
 use crate::front_end::FrontEndSettings;
 use crate::intensity::{IntensitySettings, IvMethod};
 use crate::multi_track::MultiTrack;
+
+// The multi-talker tracks' error message names the span decision's limit.
+const _: () = assert!(crate::track_spans::MAX_SPAN_FRAMES == 24);
 use crate::noise_floor::NoiseGate;
 use crate::noisy_reference::NoiseMixing;
 use crate::peak_picker::PeakSettings;
@@ -323,7 +326,7 @@ impl LocatorConfig {
         }
         if c.multi_track.enabled && (c.method != Method::Similarity || !c.multi_track.is_valid()) {
             return invalid(
-                "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains in [0, 1], 0 ≤ off ≤ on ≤ 1",
+                "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains in [0, 1], 0 ≤ off ≤ on ≤ 1, span_gap_frames ≤ 24, span_min_frames ≤ span_gap_frames",
             );
         }
         if !c.quality.is_valid() {

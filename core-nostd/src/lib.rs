@@ -97,8 +97,7 @@ pub use cma_reference::{
     alternative_result, beamformer, cartesian_filter, combination, distance, fdiv, intensity, tdiv,
 };
 pub use cma_tracking::{
-    curve_tracker, grid_tracker, motion_fit, multi_track, refine_curve, running_curve,
-    track_spans,
+    curve_tracker, grid_tracker, motion_fit, multi_track, refine_curve, running_curve, track_spans,
 };
 
 pub use cma_dsp::{

@@ -38,13 +38,13 @@ use crate::input_guard::InputGuard;
 use crate::intensity::IntensityVector;
 #[cfg(feature = "multi-talker")]
 use crate::multi_track::MultiTrackState;
-#[cfg(feature = "multi-talker")]
-use crate::track_spans::TrackSpans;
-use crate::track_spans::TrackFrame;
 use crate::noise_floor::NoiseFloor;
 use crate::reference_table::ReferenceTable;
 use crate::similarity::PeakFeature;
 use crate::similarity_frame::SimilarityFrame;
+use crate::track_spans::TrackFrame;
+#[cfg(feature = "multi-talker")]
+use crate::track_spans::TrackSpans;
 use crate::{CHANNELS, FRAME_LEN, HOP, MAX_PEAKS};
 use core::mem::MaybeUninit;
 

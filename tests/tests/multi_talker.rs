@@ -264,8 +264,19 @@ fn truth_files_tracks_csv_and_the_single_estimate() {
     // each once, in order.
     let t: Vec<f64> = rows.iter().map(|r| r[0].parse().unwrap()).collect();
     let frames = std::fs::read_to_string(&on).unwrap();
-    let last_frame: f64 = frames.lines().last().unwrap().split(',').nth(1).unwrap().parse().unwrap();
-    assert!((t[t.len() - 1] - last_frame).abs() < 1e-3, "{t:?} {last_frame}");
+    let last_frame: f64 = frames
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        (t[t.len() - 1] - last_frame).abs() < 1e-3,
+        "{t:?} {last_frame}"
+    );
     assert!(t.windows(2).all(|w| w[0] <= w[1]), "rows in frame order");
 }
 

@@ -298,10 +298,7 @@ mod tests {
     #[test]
     fn pauses_up_to_the_gap_are_closed_longer_ones_and_the_edges_are_kept() {
         let c = cfg(4, 0);
-        assert_eq!(
-            run(&c, "0011000011100000110000"),
-            "0011111111100000110000",
-        );
+        assert_eq!(run(&c, "0011000011100000110000"), "0011111111100000110000",);
         // A pause of exactly the gap closes, one frame longer does not.
         assert_eq!(run(&c, "1000011"), "1111111");
         assert_eq!(run(&c, "10000011"), "10000011");
