@@ -370,8 +370,15 @@ def main():
     for text, ok in claims:
         lines.append(f"- {'✔' if ok else '✘'} {text}")
     lines.append("")
+    # Only the part between the markers is the script's: text after them (the user guide) stays.
+    section = "\n".join([MARKERS[0]] + lines + [MARKERS[1]])
+    rest = ""
+    if os.path.exists(a.out):
+        old = open(a.out).read()
+        if MARKERS[1] in old:
+            rest = old.split(MARKERS[1], 1)[1].lstrip("\n")
     with open(a.out, "w") as f:
-        f.write("\n".join([MARKERS[0]] + lines + [MARKERS[1]]) + "\n")
+        f.write(section + "\n" + ("\n" + rest if rest else ""))
     print("\n".join(lines))
     failed = [t for t, ok in claims if not ok]
     if failed:

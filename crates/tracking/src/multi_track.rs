@@ -185,8 +185,8 @@ impl MultiTrack {
         talker_level: 0.1,
         hold_evidence: 0.3,
         overlap_hold_frames: 20,
-        span_gap_frames: 12,
-        span_min_frames: 8,
+        span_gap_frames: 16,
+        span_min_frames: 12,
         death_frames: 3000,
         replace_frames: 150,
     };

@@ -16,7 +16,7 @@
 //! Everything else of a reported track (ID, azimuth, confidence) is the tracker's at that frame.
 //! With `span_gap_frames = 0` the frames are reported as the tracker decides them, without delay.
 //!
-//! State: the last [`MAX_SPAN_FRAMES`] + 1 frames' tracks (≈ 0.5 KB) and, per track slot, the
+//! State: the last [`MAX_SPAN_FRAMES`] + 1 frames' tracks (≈ 1 KB) and, per track slot, the
 //! tracker's activity of the last 64 frames as bits. Work per frame: a few shifts and at most
 //! about a hundred bit tests per track.
 //!
@@ -309,6 +309,11 @@ mod tests {
         let c = cfg(4, 3);
         assert_eq!(run(&c, "0010000000110000000"), "0000000000000000000");
         assert_eq!(run(&c, "0010010000011100000"), "0011110000011100000");
+    }
+
+    #[test]
+    fn the_state_is_about_a_kilobyte() {
+        assert!(core::mem::size_of::<TrackSpans>() <= 1100);
     }
 
     #[test]
