@@ -11,6 +11,7 @@ pub mod inputs;
 pub mod scene;
 pub mod stages;
 
+use cma_core::track_spans::TrackFrame;
 use cma_core::Estimate;
 use core::fmt;
 
@@ -76,6 +77,27 @@ impl fmt::Display for EstimateBits<'_> {
     }
 }
 
+/// A decided frame's multi-talker tracks with every float as its bit pattern, one line:
+/// `T <frame>` and per live track ` <id> <az> <conf> <active>` (floats as 8 hex digits, active 0/1).
+pub struct TracksBits<'a>(pub &'a TrackFrame);
+
+impl fmt::Display for TracksBits<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "T {}", self.0.frame_index)?;
+        for t in self.0.tracks() {
+            write!(
+                f,
+                " {} {:08x} {:08x} {}",
+                t.id,
+                t.azimuth_deg.to_bits(),
+                t.confidence.to_bits(),
+                u8::from(t.active)
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// Sample frames per block fed to the localizer (any size gives the same estimates).
 pub const BLOCK: usize = 256;
 
@@ -124,16 +146,24 @@ pub const CHECK_VARIANTS: usize = CHECK_CONFIGS + inputs::InputKind::ALL.len();
 /// four positions).
 pub const CHECK_KIND_HOPS: usize = 120;
 
-/// Runs check variant `variant` (< [`CHECK_VARIANTS`]) and calls `on_estimate` with every estimate;
-/// `false` for an unknown variant.
+/// Runs check variant `variant` (< [`CHECK_VARIANTS`]) and calls `on_line` with every line to
+/// compare: each estimate ([`EstimateBits`]) and, with the multi-talker tracks on, after it the
+/// tracks the core decided then and at the end the flushed ones ([`TracksBits`]); `false` for an
+/// unknown variant.
 ///
 /// # Panics
 /// Never for a valid variant.
-pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
+pub fn run_check(variant: usize, mut on_line: impl FnMut(&dyn fmt::Display)) -> bool {
     if let Some(config) = check_config(variant) {
         // At 48 kHz, so that the check covers the decimator too (the input kinds below run at the
         // firmware's rate).
-        run_scene_with(config, scene::RATE_HZ, scene::SCENE_HOPS, true, on_estimate);
+        if config.multi_track.enabled {
+            run_scene_tracks(config, scene::RATE_HZ, scene::SCENE_HOPS, on_line);
+        } else {
+            run_scene_with(config, scene::RATE_HZ, scene::SCENE_HOPS, true, |e| {
+                on_line(&EstimateBits(e));
+            });
+        }
         return true;
     }
     let Some(kind) = variant
@@ -156,9 +186,42 @@ pub fn run_check(variant: usize, on_estimate: impl FnMut(&Estimate)) -> bool {
         kind,
         CHECK_KIND_HOPS,
         FIRMWARE_BLOCK,
-        &mut Forward(on_estimate),
+        &mut Forward(|e: &Estimate| on_line(&EstimateBits(e))),
     );
     true
+}
+
+/// The scene through `config` (with the multi-talker tracks on) sample by sample, so the tracks
+/// can be read after each estimate: `on_line` gets each estimate, the tracks decided after it, and
+/// at the end the flushed ones.
+fn run_scene_tracks(
+    config: cma_core::LocatorConfig,
+    rate_hz: u32,
+    hops: usize,
+    mut on_line: impl FnMut(&dyn fmt::Display),
+) {
+    let mut locator =
+        cma_core::Locator::new(config, cma_core::ReferenceTable::ideal_5deg(), rate_hz)
+            .expect("configuration valid at this rate");
+    let mut scene = scene::Scene::at_rate(rate_hz);
+    let mut block = [[0.0f32; cma_core::CHANNELS]; BLOCK];
+    let mut left = hops * scene::hop_samples(rate_hz);
+    while left > 0 {
+        let n = left.min(BLOCK);
+        scene.fill(&mut block[..n]);
+        for x in &block[..n] {
+            if let Some(e) = locator.process_sample(*x) {
+                on_line(&EstimateBits(&e));
+                if let Some(t) = locator.talker_tracks() {
+                    on_line(&TracksBits(&t));
+                }
+            }
+        }
+        left -= n;
+    }
+    while let Some(t) = locator.flush_talker_tracks() {
+        on_line(&TracksBits(&t));
+    }
 }
 
 /// Generates `hops` hops of the scene at the firmware's rate ([`FIRMWARE_RATE_HZ`]) block by block

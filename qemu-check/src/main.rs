@@ -2,8 +2,8 @@
 //!
 //! It reads a mode word at [`qemu_check::MODE_ADDR`] (0 unless QEMU's generic loader sets it) and
 //! * mode 0: runs check variant `arg` ([`qemu_check::run_check`]: the test scene through a
-//!   configuration, or an input kind in the firmware's blocks) and prints every estimate's bits over
-//!   semihosting, then `END <count>`;
+//!   configuration, or an input kind in the firmware's blocks) and prints every estimate's bits (and,
+//!   with the multi-talker tracks on, the decided tracks' bits) over semihosting, then `END <count>`;
 //! * modes 1–7: runs the pipeline, the scene generator or one stage `arg` times, silently, for
 //!   instruction counting (`scripts/cost.sh`);
 //! * mode 8: runs hops of an input kind in the firmware's blocks, default or multi-talker configuration
@@ -24,7 +24,7 @@ mod target {
     use cortex_m_semihosting::{debug, hprintln};
     use qemu_check::{
         inputs::InputKind, multi_talker_config, run_check, run_hops, run_scene, run_scene_with,
-        stages::Bench, EstimateBits, HopMarks, Mode, FIRMWARE_BLOCK, FIRMWARE_RATE_HZ, MODE_ADDR,
+        stages::Bench, HopMarks, Mode, FIRMWARE_BLOCK, FIRMWARE_RATE_HZ, MODE_ADDR,
     };
 
     // The mark functions: `scripts/cost.sh` finds them by name. Their `nop`s (an `asm!` each, which
@@ -83,8 +83,8 @@ mod target {
         match Mode::from_word(word) {
             Some(Mode::Check) => {
                 let mut n = 0u32;
-                let known = run_check(arg, |e| {
-                    hprintln!("{}", EstimateBits(e));
+                let known = run_check(arg, |line| {
+                    hprintln!("{}", line);
                     n += 1;
                 });
                 if !known {
