@@ -855,6 +855,17 @@ pub fn render(v: &View<'_>, cols: usize, rows: usize) -> String {
     }
     if let Some(t) = v.tracks {
         let mut s = String::from("talkers    ");
+        // A board decides a frame's tracks some frames after its frame line: say how long before
+        // the last frame the talkers line holds.
+        if let Some(f) = v
+            .last
+            .filter(|f| f.rate_hz > 0 && f.centre_sample >= t.centre_sample)
+        {
+            let lag = (f.centre_sample - t.centre_sample) as f64 / f64::from(f.rate_hz);
+            if lag > 0.0 {
+                s = format!("talkers {lag:.2} s before:");
+            }
+        }
         if t.tracks.is_empty() {
             s.push_str(" none speaking");
         }
@@ -1164,13 +1175,25 @@ mod tests {
             b.dipole_part = [wire::PART_MAX, 1, 7000];
         }
         let bg = widest_background();
+        // Three talkers with the widest numbers, decided 0.26 s before the last frame.
+        let widest = cma_core::multi_track::TalkerTrack {
+            id: u16::MAX,
+            azimuth_deg: -179.9,
+            confidence: 1.0,
+            active: true,
+        };
+        let talkers = TracksLine::from_tracks(
+            [widest; cma_core::multi_track::MAX_TRACKS],
+            u32::MAX,
+            f.centre_sample - 3 * 16 * 256,
+        );
         let v = View {
             port: Path::new("/dev/serial/by-id/usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0"),
             baud: 921_600,
             connected: false,
             last: Some(&f),
             calibration: Some(&cal),
-            tracks: None,
+            tracks: Some(&talkers),
             background: Some(&bg),
             counters,
             reopens: 17,
@@ -1196,6 +1219,14 @@ mod tests {
             }
             let has_rose = lines.iter().any(|l| l.contains('@'));
             assert_eq!(has_rose, cols >= 80 && rows >= 24, "{cols}×{rows}");
+            if cols >= 80 {
+                assert!(
+                    lines
+                        .iter()
+                        .any(|l| l.contains("talkers 0.26 s before: 65535:-180°")),
+                    "{text}"
+                );
+            }
             assert_eq!(lines.contains(&LEGEND), has_rose);
             assert!(lines.last().unwrap().starts_with("no valid frames"));
             if has_rose {
