@@ -58,7 +58,11 @@ pub struct GridTracker {
     /// pause (at least [`GridTracker::pause_frames`] frames with b = 0): a talker changes place, or
     /// another talker starts, between utterances rather than within one, and the first frames of
     /// an utterance carry the most direct sound. Below [`GridTracker::jump_probability`] it has no
-    /// effect.
+    /// effect. An onset is two reliable frames in a row: the first is tracked as any frame and
+    /// the onset frames start with the second, so a single reliable frame in a pause (a blip of
+    /// the noise that the gate let through) neither moves the estimate nor ends the pause
+    /// (measured on real speech, whose pauses synthetic speech lacks: such a blip carried a static
+    /// talker's estimate 130° away for the rest of a 0.6 s pause).
     pub onset_jump_probability: f32,
     /// Frames with b = 0 that make a pause for [`GridTracker::onset_jump_probability`] (0 disables it).
     pub pause_frames: u32,
@@ -124,6 +128,9 @@ pub struct GridTrackerState {
     quiet: u32,
     /// Reliable frames left that use the onset jump probability.
     onset_left: u32,
+    /// The last frame was a reliable one right after a pause: the next reliable frame confirms the
+    /// onset.
+    onset_pending: bool,
     /// Running mean curve for the position between grid points.
     running: RunningCurve,
     /// Weighted sums of the motion fit.
@@ -151,6 +158,7 @@ impl GridTrackerState {
             drift: 0.0,
             quiet: 0,
             onset_left: 0,
+            onset_pending: false,
             running: RunningCurve::new(),
             fit: MotionFit::new(),
             fit_velocity: f32::NAN,
@@ -212,9 +220,17 @@ impl GridTracker {
         }
         if !(b > 0.0) {
             state.quiet = state.quiet.saturating_add(1);
+            state.onset_pending = false;
             return (self.jump_probability, false);
         }
         if state.quiet >= self.pause_frames {
+            if !state.onset_pending {
+                // A single reliable frame in a pause may be a blip of the noise: the pause goes on
+                // unless the next frame is reliable too.
+                state.onset_pending = true;
+                return (self.jump_probability, false);
+            }
+            state.onset_pending = false;
             state.onset_left = self.onset_frames;
         }
         state.quiet = 0;
@@ -564,12 +580,45 @@ mod tests {
             assert_eq!(frames_to_switch(o, 0), frames_to_switch(t, 0));
             assert_eq!(frames_to_switch(o, 5), frames_to_switch(t, 5));
         }
-        // After a pause the first reliable frames may jump: the switch comes sooner, and sooner
-        // still when each onset frame may move the posterior further.
+        // After a pause the reliable frames from the second on may jump: the switch comes sooner,
+        // and sooner still when each onset frame may move the posterior further.
         let (with, without) = (frames_to_switch(onset, 6), frames_to_switch(t, 6));
-        assert!(with + 2 <= without, "{with} vs {without}");
+        assert!(with < without, "{with} vs {without}");
         let first = frames_to_switch(trusted, 6);
         assert!(first < with, "{first} vs {with}");
+    }
+
+    #[test]
+    fn a_single_reliable_frame_in_a_pause_does_not_start_an_onset() {
+        let t = GridTracker {
+            likelihood_floor: 0.2,
+            onset_jump_probability: 0.3,
+            pause_frames: 6,
+            onset_frames: 3,
+            onset_likelihood_floor: 0.05,
+            ..base()
+        };
+        // A talker at bin 10, then a pause with `blips` reliable frames from bin 40 in its middle.
+        let after = |blips: usize| {
+            let mut s = GridTrackerState::new();
+            for _ in 0..100 {
+                t.update(&mut s, &peaked(72, 10), 1.0, 5.0);
+            }
+            for _ in 0..30 {
+                t.update(&mut s, &peaked(72, 40), 0.0, 5.0);
+            }
+            for _ in 0..blips {
+                t.update(&mut s, &peaked(72, 40), 1.0, 5.0);
+            }
+            for _ in 0..10 {
+                t.update(&mut s, &peaked(72, 40), 0.0, 5.0);
+            }
+            argmax(s.posterior(72))
+        };
+        // A blip of the noise leaves the talker where he was; two reliable frames in a row are an
+        // onset, and may come from elsewhere.
+        assert_eq!(after(1), 10);
+        assert_eq!(after(3), 40);
     }
 
     #[test]

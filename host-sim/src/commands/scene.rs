@@ -12,10 +12,11 @@ pub struct SceneArgs {
     /// Output WAV; the truth goes to the same name with `.pos.csv`.
     #[arg(long)]
     pub out: PathBuf,
-    /// Talker: a mono WAV (resampled to --rate).
+    /// Talker: a mono WAV (resampled to --rate); with --synth, repeated to that length.
     #[arg(long)]
     pub source: Option<PathBuf>,
-    /// Talker: a synthetic speech-like signal of this many seconds (at most 3600).
+    /// Talker: a synthetic speech-like signal of this many seconds (at most 3600); with --source,
+    /// the recording repeated to this length (a pause of 0.2–0.8 s before each repeat).
     #[arg(long, value_parser = arg_values::synth_seconds)]
     pub synth: Option<f64>,
     /// Output sample rate, Hz.

@@ -516,19 +516,46 @@ pub fn load_source(
     seed: u64,
 ) -> Result<Vec<f64>> {
     match (path, synth_s) {
-        (Some(p), None) => {
-            let (r, x) = read_mono(p)?;
-            let x: Vec<f64> = x.iter().map(|v| *v as f64).collect();
-            Ok(resample(&x, r, rate))
-        }
-        (None, Some(s)) if s > 0.0 && s.is_finite() => Ok(synthetic_speech(rate, s, seed)),
-        (None, Some(s)) => Err(SimError::Usage(format!(
+        (_, Some(s)) if !(s > 0.0 && s.is_finite()) => Err(SimError::Usage(format!(
             "--synth: expected a positive duration, got {s}"
         ))),
-        _ => Err(SimError::Usage(
-            "give exactly one of --source FILE.wav or --synth SECONDS".into(),
+        (Some(p), length) => {
+            let (r, x) = read_mono(p)?;
+            let x: Vec<f64> = x.iter().map(|v| *v as f64).collect();
+            let x = resample(&x, r, rate);
+            Ok(match length {
+                Some(s) => repeated(&x, rate, s, seed),
+                None => x,
+            })
+        }
+        (None, Some(s)) => Ok(synthetic_speech(rate, s, seed)),
+        (None, None) => Err(SimError::Usage(
+            "give --source FILE.wav, --synth SECONDS, or both (the recording repeated to that length)"
+                .into(),
         )),
     }
+}
+
+/// `x` repeated to `seconds` at `rate`, with a pause of 0.2–0.8 s (drawn from `seed`) before each
+/// repeat after the first; the last repeat is cut at the end.
+#[must_use]
+pub fn repeated(x: &[f64], rate: u32, seconds: f64, seed: u64) -> Vec<f64> {
+    let n = (seconds * f64::from(rate)) as usize;
+    let mut out = Vec::with_capacity(n);
+    let mut rng = Rng::new(seed.wrapping_add(7));
+    if x.is_empty() {
+        out.resize(n, 0.0);
+        return out;
+    }
+    while out.len() < n {
+        if !out.is_empty() {
+            let pause = ((0.2 + 0.6 * rng.uniform()) * f64::from(rate)) as usize;
+            out.resize((out.len() + pause).min(n), 0.0);
+        }
+        let take = x.len().min(n - out.len());
+        out.extend_from_slice(&x[..take]);
+    }
+    out
 }
 
 /// A scene rendered as separate talker and noise sample frames (same scaling, sum = the scene), for
@@ -639,6 +666,22 @@ pub fn synthesize_parts(spec: &SceneSpec, near_field_m: Option<f64>) -> ScenePar
 mod tests {
     use super::*;
     use crate::simulation::room::ShoeBox;
+
+    #[test]
+    fn a_recording_is_repeated_with_pauses_to_the_length() {
+        let x: Vec<f64> = (0..1000).map(|i| 1.0 + f64::from(i)).collect();
+        let y = repeated(&x, 1000, 5.0, 3);
+        assert_eq!(y.len(), 5000);
+        assert_eq!(&y[..1000], &x[..]);
+        // A pause of 0.2–0.8 s, then the recording again from its start.
+        let resume = 1000 + y[1000..].iter().position(|v| *v != 0.0).unwrap();
+        assert!((1200..=1800).contains(&resume), "{resume}");
+        assert_eq!(&y[resume..resume + 1000], &x[..]);
+        assert!(repeated(&[], 1000, 1.0, 0).iter().all(|v| *v == 0.0));
+        // With no length the recording is used as it is.
+        assert!(load_source(None, None, 16000, 0).is_err());
+        assert!(load_source(None, Some(-1.0), 16000, 0).is_err());
+    }
 
     /// Each place of a talker in a shoebox has its own reflections: the response at 90° is not the
     /// response at 0° turned by 90° (the room does not turn with the talker), while its direct sound
