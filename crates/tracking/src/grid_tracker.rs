@@ -60,7 +60,8 @@ pub struct GridTracker {
     /// an utterance carry the most direct sound. Below [`GridTracker::jump_probability`] it has no
     /// effect. An onset is two reliable frames in a row: the first is tracked as any frame and
     /// the onset frames start with the second, so a single reliable frame in a pause (a blip of
-    /// the noise that the gate let through) neither moves the estimate nor ends the pause
+    /// the noise that the gate let through) neither moves the estimate nor ends the pause (the
+    /// very first reliable frame, with no talker yet to keep, starts the onset at once)
     /// (measured on real speech, whose pauses synthetic speech lacks: such a blip carried a static
     /// talker's estimate 130° away for the rest of a 0.6 s pause).
     pub onset_jump_probability: f32,
@@ -131,6 +132,8 @@ pub struct GridTrackerState {
     /// The last frame was a reliable one right after a pause: the next reliable frame confirms the
     /// onset.
     onset_pending: bool,
+    /// A reliable frame has been seen (before it, the first one starts the track at once).
+    heard: bool,
     /// Running mean curve for the position between grid points.
     running: RunningCurve,
     /// Weighted sums of the motion fit.
@@ -159,6 +162,7 @@ impl GridTrackerState {
             quiet: 0,
             onset_left: 0,
             onset_pending: false,
+            heard: false,
             running: RunningCurve::new(),
             fit: MotionFit::new(),
             fit_velocity: f32::NAN,
@@ -223,8 +227,10 @@ impl GridTracker {
             state.onset_pending = false;
             return (self.jump_probability, false);
         }
+        let first = !state.heard;
+        state.heard = true;
         if state.quiet >= self.pause_frames {
-            if !state.onset_pending {
+            if !state.onset_pending && !first {
                 // A single reliable frame in a pause may be a blip of the noise: the pause goes on
                 // unless the next frame is reliable too.
                 state.onset_pending = true;
