@@ -203,13 +203,8 @@ fn run_scene_tracks(
     let mut locator =
         cma_core::Locator::new(config, cma_core::ReferenceTable::ideal_5deg(), rate_hz)
             .expect("configuration valid at this rate");
-    let mut scene = scene::Scene::at_rate(rate_hz);
-    let mut block = [[0.0f32; cma_core::CHANNELS]; BLOCK];
-    let mut left = hops * scene::hop_samples(rate_hz);
-    while left > 0 {
-        let n = left.min(BLOCK);
-        scene.fill(&mut block[..n]);
-        for x in &block[..n] {
+    scene_blocks(rate_hz, hops, |block| {
+        for x in block {
             if let Some(e) = locator.process_sample(*x) {
                 on_line(&EstimateBits(&e));
                 if let Some(t) = locator.talker_tracks() {
@@ -217,8 +212,7 @@ fn run_scene_tracks(
                 }
             }
         }
-        left -= n;
-    }
+    });
     while let Some(t) = locator.flush_talker_tracks() {
         on_line(&TracksBits(&t));
     }
@@ -255,17 +249,25 @@ pub fn run_scene_with(
     let mut locator =
         cma_core::Locator::new(config, cma_core::ReferenceTable::ideal_5deg(), rate_hz)
             .expect("configuration valid at this rate");
+    scene_blocks(rate_hz, hops, |block| {
+        if process {
+            locator.process_block(block, &mut on_estimate);
+        } else {
+            core::hint::black_box(block);
+        }
+    });
+}
+
+/// Generates `hops` hops of the scene at `rate_hz` in blocks of [`BLOCK`] sample frames and calls
+/// `on_block` with each.
+fn scene_blocks(rate_hz: u32, hops: usize, mut on_block: impl FnMut(&[[f32; cma_core::CHANNELS]])) {
     let mut scene = scene::Scene::at_rate(rate_hz);
     let mut block = [[0.0f32; cma_core::CHANNELS]; BLOCK];
     let mut left = hops * scene::hop_samples(rate_hz);
     while left > 0 {
         let n = left.min(BLOCK);
         scene.fill(&mut block[..n]);
-        if process {
-            locator.process_block(&block[..n], &mut on_estimate);
-        } else {
-            core::hint::black_box(&block);
-        }
+        on_block(&block[..n]);
         left -= n;
     }
 }

@@ -103,33 +103,20 @@ fn talkers_taking_turns_are_tracked_with_one_id_each() {
     assert!(m.span_precision >= 0.95, "{m:?}");
     // Without the span decision the quick release drops the pauses inside the utterances, and
     // the causal hangover that bridges them runs on after each utterance.
-    let quick = set_metrics_with(
-        dir.path(),
-        "turns",
-        LocatorConfig {
-            multi_track: MultiTrack {
-                span_gap_frames: 0,
-                span_min_frames: 0,
-                ..MultiTrack::DEFAULT
-            },
-            ..LocatorConfig::default()
+    let without_spans = |tail_off, own_off| LocatorConfig {
+        multi_track: MultiTrack {
+            span_gap_frames: 0,
+            span_min_frames: 0,
+            tail_off,
+            own_off,
+            ..MultiTrack::DEFAULT
         },
-    );
+        ..LocatorConfig::default()
+    };
+    let d = MultiTrack::DEFAULT;
+    let quick = set_metrics_with(dir.path(), "turns", without_spans(d.tail_off, d.own_off));
     assert!(quick.span_recall + 0.03 < m.span_recall, "{quick:?}");
-    let causal = set_metrics_with(
-        dir.path(),
-        "turns",
-        LocatorConfig {
-            multi_track: MultiTrack {
-                span_gap_frames: 0,
-                span_min_frames: 0,
-                tail_off: 0.15,
-                own_off: 0.3,
-                ..MultiTrack::DEFAULT
-            },
-            ..LocatorConfig::default()
-        },
-    );
+    let causal = set_metrics_with(dir.path(), "turns", without_spans(0.15, 0.3));
     assert!(
         causal.span_precision + 0.02 < m.span_precision,
         "{causal:?}"
