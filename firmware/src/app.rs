@@ -277,7 +277,10 @@ async fn dsp_task(
         });
         // A block (32 sample frames) completes at most one hop (256), so these are the tracks
         // the core decided after that estimate (those of an earlier frame, `t` says which).
-        if let (true, Some(_), Some(decided)) = (MULTI_TALKER, estimated, locator.talker_tracks()) {
+        if let Some(decided) = (MULTI_TALKER && estimated.is_some())
+            .then(|| locator.talker_tracks())
+            .flatten()
+        {
             let t = locator.centre_sample(decided.frame_index);
             let tracks = TracksLine::from_tracks(decided.tracks(), 0, t);
             if OUTGOING.try_send(Outgoing::Tracks(tracks)).is_err() {

@@ -361,13 +361,8 @@ impl MultiTrackState {
     }
 
     /// The live tracks (active or not), in slot order.
-    pub fn tracks(&self) -> impl Iterator<Item = TalkerTrack> + '_ {
-        self.slots.iter().filter(|s| s.live).map(|s| TalkerTrack {
-            id: s.id,
-            azimuth_deg: s.azimuth_deg,
-            confidence: s.activity.clamp(0.0, 1.0),
-            active: s.active,
-        })
+    pub fn tracks(&self) -> impl Iterator<Item = TalkerTrack> {
+        self.slot_tracks().into_iter().flatten()
     }
 
     /// The live tracks (active or not) by slot: a track keeps its slot while it lives.
