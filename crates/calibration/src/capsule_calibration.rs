@@ -603,10 +603,17 @@ impl BandSums {
 
     /// The model of these sums, or `None` when they do not describe a plausible cardioid in a
     /// diffuse field; `shrinkage` as in [`plane_deviation`].
-    fn solve(&self, shrinkage: f32) -> Option<BandModel> {
+    ///
+    /// The capsules' own noise, `noise_share` times the field's dipole power, leaves the field's
+    /// share of every power the difference of two nearly equal ones: the estimate's sampling
+    /// variance grows by (1 + share)², so it counts as n/(1 + share)² background peaks (its
+    /// shrinkage, its weight among the bands and its confidence).
+    fn solve(&self, shrinkage: f32, noise_share: f32) -> Option<BandModel> {
         if !(self.n > 0.0) {
             return None;
         }
+        let inflation = 1.0 + noise_share.max(0.0);
+        let n = self.n / (inflation * inflation);
         let (a, _, off) = self.residuals()?;
         // A diffuse background's dipole parts correlate negatively (R_mn = −½κ·b_m·b_n).
         if !off.iter().all(|v| *v < 0.0) {
@@ -619,11 +626,11 @@ impl BandSums {
         let scale = (a[0] + a[1] + a[2]) / (b[0] + b[1] + b[2]);
         let b = b.map(|v| v * scale);
         let mean = (a[0] + a[1] + a[2]) / 3.0;
-        let dev = plane_deviation(&self.plane, self.n, shrinkage)?;
+        let dev = plane_deviation(&self.plane, n, shrinkage)?;
         let model = BandModel {
             omni_part: [mean + dev[0], mean + dev[1], mean + dev[2]],
             dipole_part: b,
-            peaks: self.n,
+            peaks: n,
         };
         model.is_plausible().then_some(model)
     }
@@ -1137,8 +1144,9 @@ impl CapsuleCalibrationState {
                 0.0
             };
             let clean = total.without_noise(noise);
+            let share = clean.noise_share(noise);
             if self.batch[band].without_noise(noise).anisotropy() > self.settings.max_anisotropy
-                || clean.noise_share(noise) > MAX_NOISE_SHARE
+                || share > MAX_NOISE_SHARE
             {
                 // A directional background in this band, or one the capsules' own noise drowns:
                 // drop its batch, keep its estimate.
@@ -1155,7 +1163,7 @@ impl CapsuleCalibrationState {
             if self.sums[band].n <= 0.0 && self.batch_frames < FIRST_ESTIMATE_FRAMES {
                 continue;
             }
-            if let Some(model) = clean.solve(self.settings.shrinkage) {
+            if let Some(model) = clean.solve(self.settings.shrinkage, share) {
                 self.accepted.bands[band] = model;
             }
         }
@@ -1281,6 +1289,34 @@ mod tests {
         }
         let noise = st.sums[1].self_noise() / st.sums[1].n;
         assert!((noise - 0.05).abs() < 0.005, "{noise}");
+    }
+
+    #[test]
+    fn capsule_noise_counts_as_less_evidence() {
+        // The same background with and without capsule noise of a share s of the field's dipole
+        // power (0.6–1.6 across the bands): the noisy estimate rests on the difference of nearly
+        // equal powers, its variance is (1 + s)² times larger, and it counts as that many times
+        // fewer peaks (less confidence, more shrinkage), which keeps an ideal array's cold start
+        // nearer ideal.
+        let mut clean = fresh();
+        let mut noisy = fresh();
+        feed(&mut clean, A, B, 0.0, 0.0, None, false, 20_000, 5, 0.0);
+        feed(&mut noisy, A, B, 0.0, 0.0, None, false, 20_000, 5, 0.05);
+        for band in 0..CAL_BANDS {
+            let sums = noisy.sums[band];
+            let noise = sums.self_noise() / sums.n;
+            let share = sums.without_noise(noise).noise_share(noise);
+            assert!(share > 0.3, "band {band}: share {share}");
+            // Against the background peaks behind it (fewer than the clean run's where early
+            // batches, the noise not yet known, were held).
+            let counted = noisy.estimate().bands[band].peaks / sums.n;
+            let expected = 1.0 / ((1.0 + share) * (1.0 + share));
+            assert!(
+                (counted / expected - 1.0).abs() < 0.1,
+                "band {band}: {counted} vs {expected}"
+            );
+        }
+        assert!(noisy.confidence() < clean.confidence());
     }
 
     #[test]
@@ -1614,7 +1650,7 @@ mod tests {
         st.restore(&saved);
         assert_eq!(st.estimate().bands[1], saved.bands[1]);
         let m = st.sums[1]
-            .solve(CapsuleCalibration::DEFAULT.shrinkage)
+            .solve(CapsuleCalibration::DEFAULT.shrinkage, 0.0)
             .unwrap();
         for i in 0..3 {
             let dev = saved.bands[1].omni_part[i] - 0.5;
