@@ -33,7 +33,7 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     onset_frames: 3,
     onset_likelihood_floor: 0.05,
     refine_gain: 0.1,
-    refine_limit: 1.0,
+    refine_limit: 0.5,
     refine_curve: crate::refine_curve::RefineCurve::Similarity,
     motion_fit_pole: 0.99,
     motion_fit_min_deg: 0.6,

@@ -20,6 +20,10 @@ use crate::reliability::unit_reliability;
 use crate::running_curve::RunningCurve;
 use crate::MAX_AZIMUTHS;
 
+/// Largest distance of the estimate from the posterior's maximum, in grid steps, while the talker
+/// is seen moving: the drift-compensated running mean follows him between grid points.
+pub const MOVING_REFINE_LIMIT: f32 = 1.0;
+
 /// Tracker settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -80,7 +84,11 @@ pub struct GridTracker {
     /// point.
     pub refine_gain: f32,
     /// Largest distance of the estimate from the posterior's maximum, in grid steps, when
-    /// [`GridTracker::refine_gain`] is on.
+    /// [`GridTracker::refine_gain`] is on and the talker is still (no drift beyond
+    /// [`GridTracker::min_velocity_deg`]); while he is seen moving, at least
+    /// [`MOVING_REFINE_LIMIT`]. The running mean keeps curves of the talker's last place for a
+    /// while: after a jump, or a walk that stopped, a tight limit keeps them from holding the
+    /// estimate off the posterior's new maximum (validation suite, docs/history.md).
     pub refine_limit: f32,
     /// The curve whose running mean places the estimate between grid points when
     /// [`GridTracker::refine_gain`] is on: the similarity curve, or a distance curve
@@ -398,7 +406,14 @@ impl GridTracker {
         if !(self.refine_gain > 0.0) {
             return Some((base, p));
         }
-        let Some(d) = state.running.vertex_offset(p, q, self.refine_limit) else {
+        // A talker seen moving may be up to a whole grid step from the posterior's maximum (the
+        // running mean is drift-compensated); a still one only `refine_limit` steps.
+        let limit = if state.drift != 0.0 {
+            self.refine_limit.max(MOVING_REFINE_LIMIT)
+        } else {
+            self.refine_limit
+        };
+        let Some(d) = state.running.vertex_offset(p, q, limit) else {
             return Some((base, p));
         };
         Some((offset_azimuth(&azimuths_deg[..q], p, d), p))
@@ -845,6 +860,39 @@ mod tests {
             ..refined
         });
         assert!((l - 51.0).abs() < 1e-3, "{l}");
+    }
+
+    #[test]
+    fn a_moving_talker_may_be_a_whole_step_from_the_maximum() {
+        // The still talker above (2° off a 5° grid point) under a 0.2-step limit: held 1° off the
+        // grid point. One frame later with a drift the tracker sees (a talker walking on) the
+        // limit is MOVING_REFINE_LIMIT, and the running mean's vertex is reported.
+        let az: [f32; 72] = core::array::from_fn(|i| i as f32 * 5.0);
+        let curve: [f32; 72] = core::array::from_fn(|i| {
+            let d = crate::angle::wrap_deg(az[i] - 52.0);
+            1.0 / (1.0 + 0.01 * d * d)
+        });
+        let t = GridTracker {
+            likelihood_floor: 0.2,
+            refine_gain: 0.1,
+            refine_limit: 0.2,
+            min_velocity_deg: 0.3,
+            ..base()
+        };
+        let mut still = GridTrackerState::new();
+        for _ in 0..100 {
+            t.update(&mut still, &curve, 1.0, 5.0);
+        }
+        let mut moving = still.clone();
+        moving.velocity = 0.5;
+        t.update(&mut still, &curve, 1.0, 5.0);
+        t.update(&mut moving, &curve, 1.0, 5.0);
+        let (e, p) = t.estimate(&mut still, &az).unwrap();
+        assert_eq!(p, 10);
+        assert!((e - 51.0).abs() < 1e-3, "still: {e}");
+        let (e, p) = t.estimate(&mut moving, &az).unwrap();
+        assert_eq!(p, 10);
+        assert!(e > 51.5 && e <= 55.0, "moving: {e}");
     }
 
     #[test]

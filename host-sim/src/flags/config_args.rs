@@ -233,7 +233,8 @@ pub struct ConfigArgs {
     /// (0 = parabola through the log-posterior, the earlier behaviour).
     #[arg(long, value_parser = crate::flags::arg_values::unit, help_heading = "Tracking")]
     pub refine_gain: Option<f32>,
-    /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps.
+    /// Grid tracker: largest distance of the estimate from the posterior's maximum, grid steps, for
+    /// a still talker (a moving one: at least one step).
     #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Tracking")]
     pub refine_limit: Option<f32>,
     /// Grid tracker: the curve whose running mean places the estimate between grid points.
