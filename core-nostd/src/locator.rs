@@ -352,8 +352,9 @@ impl<'t> Locator<'t> {
     }
 
     /// The multi-talker tracks of the frame decided after the last frame: with
-    /// `multi_track.span_gap_frames` = n > 0, the tracks of the frame n frames before the last
-    /// (`None` before the first n frames; [`crate::track_spans`]), else of the last frame. Every
+    /// `multi_track.span_gap_frames` > 0, the tracks of the frame n =
+    /// `multi_track.span_delay_frames()` frames before the last (`None` before the first n frames;
+    /// [`crate::track_spans`]), else of the last frame. Every
     /// live track, active or not. `None` when the stage is off or not built (feature
     /// `multi-talker`).
     #[must_use]

@@ -482,8 +482,8 @@ fn emit_to_monitor_carries_track_lines() {
         })
         .collect();
     // A track line follows every frame line once the first frame's activity is decided, and
-    // holds the tracks of the frame `span_gap_frames` frame lines earlier.
-    let gap = cma_core::multi_track::MultiTrack::DEFAULT.span_gap_frames as usize;
+    // holds the tracks of the frame `span_delay_frames()` frame lines earlier.
+    let gap = cma_core::multi_track::MultiTrack::DEFAULT.span_delay_frames() as usize;
     let sent_frames = frames(&sent);
     assert_eq!(tracks.len(), sent_frames.len() - gap);
     assert!(tracks.iter().enumerate().all(|(i, t)| t.seq == i as u32));

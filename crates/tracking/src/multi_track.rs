@@ -149,6 +149,11 @@ pub struct MultiTrack {
     /// Bursts of activity shorter than this (pauses closed) are not reported active (at most
     /// `span_gap_frames`; 0 or 1: every burst is).
     pub span_min_frames: u32,
+    /// Frames by which the tracker's activity lags the talker (its smoothing,
+    /// [`MultiTrack::activity_pole`], rises after his first word and falls after his last): the
+    /// span decision gives each frame the activity decided this many frames later, and so reports
+    /// the tracks `span_gap_frames` + `span_lead_frames` frames late (with `span_gap_frames` > 0).
+    pub span_lead_frames: u32,
     /// Inactive frames after which a track ends.
     pub death_frames: u32,
     /// Inactive frames after which a track's slot may be taken by a new track when none is free.
@@ -187,14 +192,15 @@ impl MultiTrack {
         overlap_hold_frames: 20,
         span_gap_frames: 16,
         span_min_frames: 12,
+        span_lead_frames: 6,
         death_frames: 3000,
         replace_frames: 150,
     };
 
     /// Whether the settings are usable: finite; gates and separation in (0, 180]; poles in [0, 1);
     /// gains, `talker_level` and `hold_evidence` in [0, 1]; 0 ≤ `active_off` ≤ `active_on` ≤ 1;
-    /// birth mass > 0; `span_gap_frames` ≤ [`crate::track_spans::MAX_SPAN_FRAMES`] and
-    /// `span_min_frames` ≤ `span_gap_frames` (or 1).
+    /// birth mass > 0; `span_gap_frames` + `span_lead_frames` ≤
+    /// [`crate::track_spans::MAX_SPAN_FRAMES`] and `span_min_frames` ≤ `span_gap_frames` (or 1).
     #[must_use]
     pub fn is_valid(&self) -> bool {
         let angle = |a: f32| a > 0.0 && a <= 180.0;
@@ -220,8 +226,23 @@ impl MultiTrack {
             && self.active_on <= 1.0
             && self.birth_mass > 0.0
             && self.birth_mass.is_finite()
-            && self.span_gap_frames as usize <= crate::track_spans::MAX_SPAN_FRAMES
+            && (self.span_gap_frames + self.span_lead_frames) as usize
+                <= crate::track_spans::MAX_SPAN_FRAMES
             && self.span_min_frames <= self.span_gap_frames.max(1)
+    }
+}
+
+impl MultiTrack {
+    /// Frames by which the span decision reports the tracks late: `span_gap_frames` +
+    /// `span_lead_frames` (0 without the decision, `span_gap_frames` = 0; at most
+    /// [`crate::track_spans::MAX_SPAN_FRAMES`]).
+    #[must_use]
+    pub fn span_delay_frames(&self) -> u32 {
+        if self.span_gap_frames == 0 {
+            return 0;
+        }
+        (self.span_gap_frames + self.span_lead_frames)
+            .min(crate::track_spans::MAX_SPAN_FRAMES as u32)
     }
 }
 

@@ -5,7 +5,7 @@
 //! the first frame line and then every [`CALIBRATION_PERIOD_S`](cma_core::wire::CALIBRATION_PERIOD_S) seconds
 //! of the recording ([`CalibrationSchedule`]), after the frame line that made it due. With the
 //! multi-talker tracks on, a track line follows every frame line once the tracks' spans are
-//! decided: it holds the tracks of the frame `multi_track.span_gap_frames` frames earlier (its `t`
+//! decided: it holds the tracks of the frame `multi_track.span_delay_frames()` frames earlier (its `t`
 //! says which; the last frames' tracks are not sent, as a board decides them only when the next
 //! frames come). Like the firmware, a background
 //! line (the stationary background per band) follows the frame line (and track line) of the

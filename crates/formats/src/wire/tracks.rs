@@ -1,6 +1,6 @@
 //! The track line: the active multi-talker tracks ([`TalkerTrack`]) of one analysis frame as one
 //! ASCII line, sent by a board with the multi-talker stage on after each frame line, for the frame
-//! whose activity the core decided then (`multi_track.span_gap_frames` frames earlier, see
+//! whose activity the core decided then (`multi_track.span_delay_frames()` frames earlier, see
 //! `cma_tracking::track_spans`; `t` names it). Version 1, byte by byte:
 //!
 //! ```text
