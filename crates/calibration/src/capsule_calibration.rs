@@ -43,9 +43,11 @@
 //! 4×4 cross-power matrix of (W, X_1, X_2, X_3) is singular; white noise of equal power σ² in the
 //! four capsules adds σ² to all its eigenvalues. Its smallest eigenvalue is therefore σ², and
 //! every estimate here is made from the sums with σ² taken off their powers (the regression of W
-//! on the cardioids so becomes the total least-squares one). A band
-//! whose capsule noise is more than [`MAX_NOISE_SHARE`] times the field's dipole power does not
-//! learn (held, as below).
+//! on the cardioids so becomes the total least-squares one). The field's share of every power is
+//! then the difference of two nearly equal ones, so a band's estimate with capsule noise s times
+//! the field's dipole power counts as (1 + s)² times fewer background peaks (its variance grows by
+//! that much; the shrinkage below then waits for more of them). A band whose capsule noise is
+//! more than [`MAX_NOISE_SHARE`] times the field's dipole power does not learn (held, as below).
 //!
 //! The cross-powers check the field: with R_mn = E[Re(X_m X_n*)] / E|W|² − a_m·a_n (the dipole
 //! parts' cross-powers, κ·b_m·b_n·cos(φ_m − φ_n) in a diffuse field, κ = ⅓ in 3-D) every
