@@ -15,6 +15,16 @@
 //! short line over the last ≈ 0.15 s ([`SHORT_POLE`]) watches for that: when its slope lies
 //! [`SIGNIFICANCE`] of its standard errors from the long line's, the talker's motion has changed,
 //! and the long line restarts from the short one.
+//!
+//! Real speech in a room comes in bursts of two or three reliable frames, too short in time for
+//! the short line's slope. A talker who stops shows it differently: the frames of his next bursts
+//! lie *behind* the long line's extrapolation, further with every burst. When the short line's
+//! frames lie behind it by [`RECENT_SIGNIFICANCE`] standard errors and at least
+//! [`RECENT_MIN_OFFSET_DEG`], the fit reports rest (the drift holds) and, once frames of weight
+//! [`CONFIRM_WEIGHT`] have been seen off the line in a row, both lines start again; frames back on
+//! the line end the doubt. (Measured on the validation suite: a talker who stops after circling at
+//! 45–90°/s is within 10° in 81.9 % of the frames after the stop instead of 79.0 %, and the talkers
+//! who keep circling lose 0.1 point; resetting at the first sign cost them 2 points.)
 
 /// Half-width in degrees of the window around the reported azimuth whose frame estimates enter
 /// the fit.
@@ -30,6 +40,17 @@ const MIN_SPREAD: f32 = 100.0;
 pub const SHORT_POLE: f32 = 0.9;
 const SHORT_MIN_WEIGHT: f32 = 3.0;
 const SHORT_MIN_SPREAD: f32 = 16.0;
+/// Least weight of the short line's frames for the test of their offset from the long line.
+const RECENT_MIN_WEIGHT: f32 = 1.5;
+/// Standard errors by which the short line's frames must lie behind the long line's extrapolation
+/// for the talker to be seen slowing down.
+pub const RECENT_SIGNIFICANCE: f32 = 2.0;
+/// Least mean offset of those frames behind the long line, degrees (a room's reflections move a
+/// moving talker's frames off his path by a few degrees for a while).
+pub const RECENT_MIN_OFFSET_DEG: f32 = 8.0;
+/// Weight of the frames seen behind the long line in a row that confirms the change: both lines
+/// start again.
+pub const CONFIRM_WEIGHT: f32 = 3.0;
 
 /// The long and the short line.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -38,6 +59,10 @@ pub struct MotionFit {
     short: LineSums,
     /// The long line restarted and has not yet the weight for a slope: the short one speaks.
     restarting: bool,
+    /// Weight of the frames seen behind the long line since they were first seen there.
+    doubt: f32,
+    /// The weight with which the last frame entered the lines (0: it did not).
+    last_b: f32,
 }
 
 impl MotionFit {
@@ -48,6 +73,8 @@ impl MotionFit {
             long: LineSums::new(),
             short: LineSums::new(),
             restarting: false,
+            doubt: 0.0,
+            last_b: 0.0,
         }
     }
 
@@ -62,17 +89,39 @@ impl MotionFit {
         }
         self.long.update(step_deg, pole, offset_deg, b);
         self.short.update(step_deg, SHORT_POLE, offset_deg, b);
+        self.last_b = if b > 0.0 && b <= 1.0 && offset_deg.abs() <= GATE_DEG {
+            b
+        } else {
+            0.0
+        };
     }
 
-    /// The talker's velocity in degrees per frame and whether his motion has just changed: after a
-    /// change, the short line's slope (whatever its significance) until the long line, restarted
-    /// from the short one, has the weight for a slope again; otherwise the long line's slope where
-    /// it is [`SIGNIFICANCE`] standard errors from zero. `None` when neither holds.
+    /// The talker's velocity in degrees per frame and whether his motion has just changed: rest
+    /// (0, changed) while the recent frames lie behind the long line (module documentation);
+    /// after a change, the short line's slope (whatever its significance) until the long line,
+    /// restarted from the short one, has the weight for a slope again; otherwise the long line's
+    /// slope where it is [`SIGNIFICANCE`] standard errors from zero. `None` when none holds.
     pub fn velocity(&mut self) -> Option<(f32, bool)> {
         let long = self.long.slope(MIN_WEIGHT, MIN_SPREAD);
         let short = self.short.slope(SHORT_MIN_WEIGHT, SHORT_MIN_SPREAD);
         if long.is_some() {
             self.restarting = false;
+        }
+        // The recent frames lie behind the long line's extrapolation: the talker slowed down or
+        // stopped between bursts of speech too short for the short line's slope (which still
+        // holds the old motion). Rest while in doubt; confirmed, both lines start again.
+        if long.is_some() {
+            match self.long.behind_line(&self.short, RECENT_MIN_WEIGHT) {
+                Some(true) => {
+                    self.doubt += self.last_b;
+                    if self.doubt >= CONFIRM_WEIGHT {
+                        *self = Self::new();
+                    }
+                    return Some((0.0, true));
+                }
+                Some(false) => self.doubt = 0.0,
+                None => {}
+            }
         }
         match (long, short) {
             (Some((v, _)), Some((recent, se))) if (recent - v).abs() > SIGNIFICANCE * se => {
@@ -143,6 +192,32 @@ impl LineSums {
         if !(self.w.is_finite() && self.wtt.is_finite() && self.wyy.is_finite()) {
             *self = Self::new();
         }
+    }
+
+    /// Whether the frames of `recent` (sums over the same frames, with a shorter memory) lie
+    /// behind this line's extrapolation (against its slope): their weighted mean offset from it at
+    /// least [`RECENT_MIN_OFFSET_DEG`] and more than [`RECENT_SIGNIFICANCE`] standard errors (the
+    /// line's residual scatter over the recent weight, and the line's own uncertainty where they
+    /// lie). `None` when `recent` weighs less than `min_weight` (nothing to tell).
+    fn behind_line(&self, recent: &LineSums, min_weight: f32) -> Option<bool> {
+        let den = self.w * self.wtt - self.wt * self.wt;
+        if !(recent.w >= min_weight && self.w > 2.0 && den > 0.0) {
+            return None;
+        }
+        let num = self.w * self.wty - self.wt * self.wy;
+        let v = num / den;
+        let a = (self.wy - v * self.wt) / self.w;
+        let syy = self.w * self.wyy - self.wy * self.wy;
+        let var = (syy - v * num).max(0.0) / self.w / (self.w - 2.0);
+        let mean = (recent.wy - a * recent.w - v * recent.wt) / recent.w;
+        let dt = recent.wt / recent.w - self.wt / self.w;
+        // Sxx = den / w: the slope's variance is var / Sxx.
+        let se2 = var * (1.0 / recent.w + 1.0 / self.w + dt * dt * self.w / den);
+        Some(
+            mean * v < 0.0
+                && mean.abs() >= RECENT_MIN_OFFSET_DEG
+                && mean * mean > RECENT_SIGNIFICANCE * RECENT_SIGNIFICANCE * se2,
+        )
     }
 
     /// The fitted slope in degrees per frame and its standard error, when the weight and the
@@ -227,6 +302,67 @@ mod tests {
         }
         let (slope, _) = fit.velocity().unwrap_or((0.0, false));
         assert!(slope.abs() < 0.3, "{slope}");
+    }
+
+    /// A talker at `v` °/frame heard in bursts (two frames of b = 0.8 every ten) with a uniform
+    /// scatter of ±`noise`, who stops after `walk` frames; the reported azimuth drifts by the
+    /// fit's velocity and moves halfway to each reliable frame's estimate. Returns the frames after
+    /// the stop at which the fit first reported rest, and the drift of the last ten frames.
+    const BURST: usize = 3;
+    const PULL: f32 = 0.5;
+    fn bursts(v: f32, noise: f32, walk: usize, frames: usize) -> (Option<usize>, f32) {
+        let mut fit = MotionFit::new();
+        let mut rng = crate::test_rng::Lcg(3);
+        let (mut reported, mut drift) = (0.0f32, 0.0f32);
+        let mut rest = None;
+        let mut tail = 0.0;
+        for i in 0..frames {
+            let talker = v * i.min(walk) as f32;
+            let before = reported;
+            reported += drift;
+            let heard = i % 10 < BURST;
+            let estimate = talker + (rng.unit() - 0.5) * 2.0 * noise;
+            if heard {
+                reported += PULL * (estimate - reported);
+            }
+            let b = if heard { 0.8 } else { 0.0 };
+            fit.update(
+                if i == 0 { f32::NAN } else { reported - before },
+                0.99,
+                estimate - reported,
+                b,
+            );
+            drift = match fit.velocity() {
+                Some((d, changed)) => {
+                    if changed && d == 0.0 && i >= walk && rest.is_none() {
+                        rest = Some(i - walk);
+                    }
+                    d
+                }
+                None => 0.0,
+            };
+            if i + 10 >= frames {
+                tail += drift;
+            }
+        }
+        (rest, tail)
+    }
+
+    #[test]
+    fn a_talker_who_stops_between_bursts_is_seen_to_stop() {
+        let (rest, tail) = bursts(1.44, 3.0, 300, 400);
+        let rest = rest.expect("never seen at rest");
+        assert!(rest <= 40, "seen at rest {rest} frames after the stop");
+        assert!(tail.abs() < 2.0, "still drifting {tail}° in the last ten frames");
+    }
+
+    #[test]
+    fn a_talker_who_walks_on_between_bursts_keeps_his_slope() {
+        for noise in [3.0f32, 8.0] {
+            let (rest, tail) = bursts(1.44, noise, 600, 600);
+            assert_eq!(rest, None, "noise {noise}");
+            assert!((tail - 14.4).abs() < 2.0, "noise {noise}: drift {tail}° in ten frames");
+        }
     }
 
     #[test]
