@@ -109,8 +109,9 @@ impl MotionFit {
         }
         // The recent frames lie behind the long line's extrapolation: the talker slowed down or
         // stopped between bursts of speech too short for the short line's slope (which still
-        // holds the old motion). Rest while in doubt; confirmed, both lines start again.
-        if long.is_some() {
+        // holds the old motion). Rest while in doubt; confirmed, both lines start again. Only a
+        // talker seen moving (the long line's slope significant) can be seen to stop.
+        if long.is_some_and(|(v, se)| v.abs() > SIGNIFICANCE * se) {
             match self.long.behind_line(&self.short, RECENT_MIN_WEIGHT) {
                 Some(true) => {
                     self.doubt += self.last_b;
@@ -353,7 +354,10 @@ mod tests {
         let (rest, tail) = bursts(1.44, 3.0, 300, 400);
         let rest = rest.expect("never seen at rest");
         assert!(rest <= 40, "seen at rest {rest} frames after the stop");
-        assert!(tail.abs() < 2.0, "still drifting {tail}° in the last ten frames");
+        assert!(
+            tail.abs() < 2.0,
+            "still drifting {tail}° in the last ten frames"
+        );
     }
 
     #[test]
@@ -361,7 +365,10 @@ mod tests {
         for noise in [3.0f32, 8.0] {
             let (rest, tail) = bursts(1.44, noise, 600, 600);
             assert_eq!(rest, None, "noise {noise}");
-            assert!((tail - 14.4).abs() < 2.0, "noise {noise}: drift {tail}° in ten frames");
+            assert!(
+                (tail - 14.4).abs() < 2.0,
+                "noise {noise}: drift {tail}° in ten frames"
+            );
         }
     }
 
