@@ -87,13 +87,8 @@ impl MotionFit {
         if step_deg.abs() > GATE_DEG {
             *self = Self::new();
         }
-        self.long.update(step_deg, pole, offset_deg, b);
+        self.last_b = self.long.update(step_deg, pole, offset_deg, b);
         self.short.update(step_deg, SHORT_POLE, offset_deg, b);
-        self.last_b = if b > 0.0 && b <= 1.0 && offset_deg.abs() <= GATE_DEG {
-            b
-        } else {
-            0.0
-        };
     }
 
     /// The talker's velocity in degrees per frame and whether his motion has just changed: rest
@@ -168,7 +163,8 @@ impl LineSums {
     }
 
     /// See [`MotionFit::update`].
-    fn update(&mut self, step_deg: f32, pole: f32, offset_deg: f32, b: f32) {
+    /// Returns the weight with which the frame entered (0: it did not).
+    fn update(&mut self, step_deg: f32, pole: f32, offset_deg: f32, b: f32) -> f32 {
         // Offsets are measured from the new reported azimuth.
         if step_deg.is_finite() {
             let d = step_deg;
@@ -185,7 +181,8 @@ impl LineSums {
         self.wy = pole * wy;
         self.wyy *= pole;
         self.w = pole * w;
-        if b > 0.0 && b <= 1.0 && offset_deg.abs() <= GATE_DEG {
+        let entered = b > 0.0 && b <= 1.0 && offset_deg.abs() <= GATE_DEG;
+        if entered {
             self.w += b;
             self.wy += b * offset_deg;
             self.wyy += b * offset_deg * offset_deg;
@@ -193,6 +190,25 @@ impl LineSums {
         if !(self.w.is_finite() && self.wtt.is_finite() && self.wyy.is_finite()) {
             *self = Self::new();
         }
+        if entered {
+            b
+        } else {
+            0.0
+        }
+    }
+
+    /// The weighted least-squares line through the sums: (den, v, a, residual) with den = Sxx·w
+    /// (the centred time sum times w), v the slope, a the value at t = 0 and residual the weighted
+    /// mean squared residual.
+    fn fit(&self) -> (f32, f32, f32, f32) {
+        // The centred sums times w: Sxx·w = den, Sxy·w = num, Syy·w = syy.
+        let den = self.w * self.wtt - self.wt * self.wt;
+        let num = self.w * self.wty - self.wt * self.wy;
+        let v = num / den;
+        let a = (self.wy - v * self.wt) / self.w;
+        let syy = self.w * self.wyy - self.wy * self.wy;
+        let residual = (syy - v * num).max(0.0) / self.w;
+        (den, v, a, residual)
     }
 
     /// Whether the frames of `recent` (sums over the same frames, with a shorter memory) lie
@@ -201,15 +217,11 @@ impl LineSums {
     /// line's residual scatter over the recent weight, and the line's own uncertainty where they
     /// lie). `None` when `recent` weighs less than `min_weight` (nothing to tell).
     fn behind_line(&self, recent: &LineSums, min_weight: f32) -> Option<bool> {
-        let den = self.w * self.wtt - self.wt * self.wt;
+        let (den, v, a, residual) = self.fit();
         if !(recent.w >= min_weight && self.w > 2.0 && den > 0.0) {
             return None;
         }
-        let num = self.w * self.wty - self.wt * self.wy;
-        let v = num / den;
-        let a = (self.wy - v * self.wt) / self.w;
-        let syy = self.w * self.wyy - self.wy * self.wy;
-        let var = (syy - v * num).max(0.0) / self.w / (self.w - 2.0);
+        let var = residual / (self.w - 2.0);
         let mean = (recent.wy - a * recent.w - v * recent.wt) / recent.w;
         let dt = recent.wt / recent.w - self.wt / self.w;
         // Sxx = den / w: the slope's variance is var / Sxx.
@@ -224,15 +236,10 @@ impl LineSums {
     /// The fitted slope in degrees per frame and its standard error, when the weight and the
     /// variance of the frame times reach `min_weight` and `min_spread`.
     fn slope(&self, min_weight: f32, min_spread: f32) -> Option<(f32, f32)> {
-        // The centred sums times w: Sxx·w = den, Sxy·w = num, Syy·w = syy.
-        let den = self.w * self.wtt - self.wt * self.wt;
+        let (den, v, _, residual) = self.fit();
         if !(self.w >= min_weight && den >= min_spread * self.w * self.w) {
             return None;
         }
-        let num = self.w * self.wty - self.wt * self.wy;
-        let v = num / den;
-        let syy = self.w * self.wyy - self.wy * self.wy;
-        let residual = (syy - v * num).max(0.0) / self.w;
         let se = libm::sqrtf(residual / (self.w - 2.0).max(1.0) * self.w / den);
         (v.is_finite() && se.is_finite()).then_some((v, se))
     }
@@ -305,12 +312,16 @@ mod tests {
         assert!(slope.abs() < 0.3, "{slope}");
     }
 
-    /// A talker at `v` °/frame heard in bursts (two frames of b = 0.8 every ten) with a uniform
-    /// scatter of ±`noise`, who stops after `walk` frames; the reported azimuth drifts by the
-    /// fit's velocity and moves halfway to each reliable frame's estimate. Returns the frames after
-    /// the stop at which the fit first reported rest, and the drift of the last ten frames.
+    /// Reliable frames of each burst in [`bursts`] (one burst every ten frames).
     const BURST: usize = 3;
+    /// Share of the way the reported azimuth moves to a reliable frame's estimate in [`bursts`].
     const PULL: f32 = 0.5;
+
+    /// A talker at `v` °/frame heard in bursts ([`BURST`] frames of b = 0.8 every ten) with a
+    /// uniform scatter of ±`noise`, who stops after `walk` frames; the reported azimuth drifts by
+    /// the fit's velocity and moves [`PULL`] of the way to each reliable frame's estimate. Returns
+    /// the frames after the stop at which the fit first reported rest, and the drift of the last
+    /// ten frames.
     fn bursts(v: f32, noise: f32, walk: usize, frames: usize) -> (Option<usize>, f32) {
         let mut fit = MotionFit::new();
         let mut rng = crate::test_rng::Lcg(3);
