@@ -197,18 +197,20 @@ impl LineSums {
         }
     }
 
-    /// The weighted least-squares line through the sums: (den, v, a, residual) with den = Sxx·w
-    /// (the centred time sum times w), v the slope, a the value at t = 0 and residual the weighted
-    /// mean squared residual.
-    fn fit(&self) -> (f32, f32, f32, f32) {
+    /// Sxx·w: the centred sum of the frame times, times the weight.
+    fn den(&self) -> f32 {
+        self.w * self.wtt - self.wt * self.wt
+    }
+
+    /// The weighted least-squares line through the sums, given [`LineSums::den`]: its slope v and
+    /// the weighted mean squared residual.
+    fn fit(&self, den: f32) -> (f32, f32) {
         // The centred sums times w: Sxx·w = den, Sxy·w = num, Syy·w = syy.
-        let den = self.w * self.wtt - self.wt * self.wt;
         let num = self.w * self.wty - self.wt * self.wy;
         let v = num / den;
-        let a = (self.wy - v * self.wt) / self.w;
         let syy = self.w * self.wyy - self.wy * self.wy;
         let residual = (syy - v * num).max(0.0) / self.w;
-        (den, v, a, residual)
+        (v, residual)
     }
 
     /// Whether the frames of `recent` (sums over the same frames, with a shorter memory) lie
@@ -217,10 +219,12 @@ impl LineSums {
     /// line's residual scatter over the recent weight, and the line's own uncertainty where they
     /// lie). `None` when `recent` weighs less than `min_weight` (nothing to tell).
     fn behind_line(&self, recent: &LineSums, min_weight: f32) -> Option<bool> {
-        let (den, v, a, residual) = self.fit();
+        let den = self.den();
         if !(recent.w >= min_weight && self.w > 2.0 && den > 0.0) {
             return None;
         }
+        let (v, residual) = self.fit(den);
+        let a = (self.wy - v * self.wt) / self.w;
         let var = residual / (self.w - 2.0);
         let mean = (recent.wy - a * recent.w - v * recent.wt) / recent.w;
         let dt = recent.wt / recent.w - self.wt / self.w;
@@ -236,10 +240,11 @@ impl LineSums {
     /// The fitted slope in degrees per frame and its standard error, when the weight and the
     /// variance of the frame times reach `min_weight` and `min_spread`.
     fn slope(&self, min_weight: f32, min_spread: f32) -> Option<(f32, f32)> {
-        let (den, v, _, residual) = self.fit();
+        let den = self.den();
         if !(self.w >= min_weight && den >= min_spread * self.w * self.w) {
             return None;
         }
+        let (v, residual) = self.fit(den);
         let se = libm::sqrtf(residual / (self.w - 2.0).max(1.0) * self.w / den);
         (v.is_finite() && se.is_finite()).then_some((v, se))
     }
