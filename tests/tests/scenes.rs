@@ -215,6 +215,49 @@ fn a_talker_who_stops_is_not_carried_on() {
     );
 }
 
+/// Talkers who walk round the array at 12°/s (0.19° per frame, below the dead zone of the
+/// tracker's plain velocity estimate) in an office (RT60 0.4 s, 6 dB): the motion fit's
+/// significant slope drives the prediction however slow. Measured with these four scenes: 97.1 %
+/// of the frames after the first second within 10°, 88.1 % without the motion fit (87.7 % when a
+/// slope had to exceed 0.6° per frame to count).
+#[test]
+fn a_slow_walker_is_followed_without_lag() {
+    let dir = tempfile::tempdir().unwrap();
+    let off = config_file(
+        dir.path(),
+        "off.toml",
+        "[tracking.Grid]\nmotion_fit_pole = 0.0\n",
+    );
+    let (mut with_fit, mut without_fit, mut frames) = (0usize, 0usize, 0usize);
+    for seed in ["1", "2", "3", "4"] {
+        let wav = circling_in_an_office(
+            dir.path(),
+            &format!("slow{seed}.wav"),
+            &["--synth", "12", "--rotate", "12"],
+            seed,
+        );
+        let within = |rows: &[CsvEstimate]| {
+            let errs = errors_along_track(&wav, rows, 1.0, 12.0);
+            (errs.iter().filter(|e| e.abs() <= 10.0).count(), errs.len())
+        };
+        let (n, all) = within(&locate(&wav, &[]));
+        with_fit += n;
+        frames += all;
+        without_fit += within(&locate(&wav, &["--config", &off])).0;
+    }
+    let (with_fit, without_fit) = (
+        with_fit as f64 / frames as f64,
+        without_fit as f64 / frames as f64,
+    );
+    assert!(with_fit >= 0.93, "{:.1} % within 10°", 100.0 * with_fit);
+    assert!(
+        with_fit >= without_fit + 0.05,
+        "{:.1} % with the motion fit, {:.1} % without",
+        100.0 * with_fit,
+        100.0 * without_fit
+    );
+}
+
 #[test]
 fn noise_only_gives_low_confidence_and_no_panic() {
     let dir = tempfile::tempdir().unwrap();

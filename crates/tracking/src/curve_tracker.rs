@@ -36,7 +36,6 @@ pub const DEFAULT_GRID_TRACKER: GridTracker = GridTracker {
     refine_limit: 0.5,
     refine_curve: crate::refine_curve::RefineCurve::Similarity,
     motion_fit_pole: 0.99,
-    motion_fit_min_deg: 0.6,
 };
 
 /// State of the tracking stage.

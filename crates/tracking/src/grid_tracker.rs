@@ -40,8 +40,10 @@ pub struct GridTracker {
     /// estimate averages the frame-to-frame change of the reported azimuth weighted by the frame's
     /// reliability b: in a pause it is kept, not learned from the drift itself.
     pub velocity_pole: f32,
-    /// Dead zone of the drift, degrees per frame: slower velocity estimates (noise around a still
-    /// talker) do not move the prior, faster ones move it by their excess.
+    /// Dead zone of the [`GridTracker::velocity_pole`] estimate, degrees per frame: slower
+    /// estimates (noise around a still talker) do not move the prior. The motion fit's slope, where
+    /// it is significant, drives the prior whatever its size: its significance test is what tells a
+    /// slow walker from a still talker's noise.
     pub min_velocity_deg: f32,
     /// Gain of the innovation-driven velocity estimate (0: the velocity is the `velocity_pole`
     /// average of the frame-to-frame change of the estimate). With a gain g > 0 the velocity follows
@@ -95,13 +97,10 @@ pub struct GridTracker {
     /// ([`RefineCurve`]; the locator computes it and passes it to [`GridTracker::update_refined`]).
     pub refine_curve: RefineCurve,
     /// Forgetting pole per frame of the motion fit ([`MotionFit`]; 0 disables it): a line through
-    /// the frames' own estimates near the reported azimuth, whose slope is the talker's velocity
-    /// through his pauses too.
+    /// the frames' own estimates near the reported azimuth, whose slope, where it is significant, is
+    /// the talker's velocity through his pauses too and drives the prediction in place of the
+    /// [`GridTracker::velocity_pole`] estimate.
     pub motion_fit_pole: f32,
-    /// Least speed of the motion fit, degrees per frame, for its slope to drive the prediction in
-    /// place of the [`GridTracker::velocity_pole`] estimate (which still serves slower talkers,
-    /// whose pauses cost little).
-    pub motion_fit_min_deg: f32,
 }
 
 /// An exponent x below which `floor + (1 − floor)·exp_nonpositive(x)` rounds to `floor` exactly
@@ -210,7 +209,6 @@ impl GridTracker {
             && unit(self.refine_gain)
             && non_negative(self.refine_limit)
             && unit(self.motion_fit_pole)
-            && non_negative(self.motion_fit_min_deg)
     }
 
     /// Side weight of the 3-tap random-walk kernel [a, 1 − 2a, a] for a grid spacing in degrees
@@ -289,13 +287,12 @@ impl GridTracker {
         }
         // Predict: circular 3-tap kernel with mean = drift and variance = diffusion (bins), plus
         // the jump floor. Mass moves from bin j to j + 1 with weight `up`.
+        // A significant slope of the motion fit drives the prior whatever its size; the
+        // `velocity_pole` estimate, which has no significance test, only beyond its dead zone.
         let v = if state.fit_velocity.is_finite() {
             state.fit_velocity
-        } else {
+        } else if state.velocity.abs() > self.min_velocity_deg {
             state.velocity
-        };
-        let v = if v.abs() > self.min_velocity_deg {
-            v
         } else {
             0.0
         };
@@ -453,7 +450,10 @@ impl GridTracker {
                     if changed {
                         state.velocity = clamped;
                     }
-                    if v.abs() > self.motion_fit_min_deg {
+                    // The long line's slope (`changed` false) is significant: it drives the
+                    // prior whatever its size. The short line's, which speaks after a change of
+                    // motion, has no such test: like the plain estimate, only beyond the dead zone.
+                    if !changed || v.abs() > self.min_velocity_deg {
                         clamped
                     } else {
                         f32::NAN
@@ -674,7 +674,6 @@ mod tests {
             refine_limit: 1.0,
             refine_curve: RefineCurve::Similarity,
             motion_fit_pole: 0.0,
-            motion_fit_min_deg: 0.0,
         }
     }
 
@@ -912,6 +911,39 @@ mod tests {
             ..base()
         });
         assert!(with < without, "floor: {with} vs no floor: {without}");
+    }
+
+    /// A talker walking at 0.2° per frame, below `min_velocity_deg`, each frame's curve peaked
+    /// a few degrees off his path: the motion fit's slope, significant, drifts the prior all the
+    /// same; without the fit the plain velocity estimate stays inside its dead zone and the prior
+    /// does not move.
+    #[test]
+    fn a_slow_walker_drifts_the_prior_through_the_motion_fit() {
+        let azimuths: [f32; 72] = core::array::from_fn(|i| i as f32 * 5.0);
+        let drift_after = |t: GridTracker| {
+            let mut s = GridTrackerState::new();
+            let mut rng = crate::test_rng::Lcg(3);
+            for f in 0..600 {
+                let heard = 20.0 + 0.2 * f as f32 + (rng.unit() - 0.5) * 6.0;
+                let curve: [f32; 72] = core::array::from_fn(|i| {
+                    let d = crate::angle::wrap_deg(azimuths[i] - heard).abs();
+                    1.0 / (1.0 + 0.05 * d)
+                });
+                t.update(&mut s, &curve, 0.8, 5.0);
+                let (est, _) = t.estimate(&mut s, &azimuths).unwrap();
+                t.observe_estimate(&mut s, est, heard, 0.8);
+            }
+            s.drift
+        };
+        let d = crate::curve_tracker::DEFAULT_GRID_TRACKER;
+        assert!(d.min_velocity_deg > 0.2);
+        let with_fit = drift_after(d);
+        assert!((with_fit - 0.2).abs() < 0.03, "drift {with_fit}° per frame");
+        let without_fit = drift_after(GridTracker {
+            motion_fit_pole: 0.0,
+            ..d
+        });
+        assert_eq!(without_fit, 0.0);
     }
 
     #[test]
