@@ -55,7 +55,7 @@ pub const RECENT_SIGNIFICANCE: f32 = 3.0;
 /// moving talker's frames off his path by a few degrees for a while).
 pub const RECENT_MIN_OFFSET_DEG: f32 = 12.0;
 /// Frames between the snapshots of the long line that the recent frames are tested against.
-const CHECKPOINT_FRAMES: u32 = 16;
+pub const CHECKPOINT_FRAMES: u32 = 16;
 /// Weight of the frames seen behind the long line in a row that confirms the change: both lines
 /// start again.
 pub const CONFIRM_WEIGHT: f32 = 3.0;
