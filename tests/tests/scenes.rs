@@ -17,6 +17,18 @@ fn errors_along_track(wav: &Path, rows: &[CsvEstimate], from_s: f64, to_s: f64) 
         .collect()
 }
 
+/// Of the frames between `from_s` and `to_s`: how many lie within 10° of the truth, and how many
+/// there are.
+fn within_10_deg(wav: &Path, rows: &[CsvEstimate], from_s: f64, to_s: f64) -> (usize, usize) {
+    let errs = errors_along_track(wav, rows, from_s, to_s);
+    (errs.iter().filter(|e| e.abs() <= 10.0).count(), errs.len())
+}
+
+/// A configuration file in `dir` with the grid tracker's motion fit switched off.
+fn motion_fit_off(dir: &Path) -> String {
+    config_file(dir, "off.toml", "[tracking.Grid]\nmotion_fit_pole = 0.0\n")
+}
+
 #[test]
 fn static_talkers_are_found_at_several_azimuths() {
     let dir = tempfile::tempdir().unwrap();
@@ -169,15 +181,11 @@ fn a_fast_talker_is_followed_through_his_pauses() {
         "2",
     );
     let within = |rows: &[CsvEstimate]| {
-        let errs = errors_along_track(&wav, rows, 1.0, 12.0);
-        errs.iter().filter(|e| e.abs() <= 10.0).count() as f64 / errs.len() as f64
+        let (n, all) = within_10_deg(&wav, rows, 1.0, 12.0);
+        n as f64 / all as f64
     };
     let with_fit = within(&locate(&wav, &[]));
-    let off = config_file(
-        dir.path(),
-        "off.toml",
-        "[tracking.Grid]\nmotion_fit_pole = 0.0\n",
-    );
+    let off = motion_fit_off(dir.path());
     let without_fit = within(&locate(&wav, &["--config", &off]));
     assert!(with_fit >= 0.85, "{:.1} % within 10°", 100.0 * with_fit);
     assert!(
@@ -203,9 +211,9 @@ fn a_talker_who_stops_is_not_carried_on() {
             &["--synth", "10", "--rotate", "70", "--rotate-until", "4"],
             seed,
         );
-        let errs = errors_along_track(&wav, &locate(&wav, &[]), 4.0, 10.0);
-        within += errs.iter().filter(|e| e.abs() <= 10.0).count();
-        frames += errs.len();
+        let (n, all) = within_10_deg(&wav, &locate(&wav, &[]), 4.0, 10.0);
+        within += n;
+        frames += all;
     }
     let share = within as f64 / frames as f64;
     assert!(
@@ -223,11 +231,7 @@ fn a_talker_who_stops_is_not_carried_on() {
 #[test]
 fn a_slow_walker_is_followed_without_lag() {
     let dir = tempfile::tempdir().unwrap();
-    let off = config_file(
-        dir.path(),
-        "off.toml",
-        "[tracking.Grid]\nmotion_fit_pole = 0.0\n",
-    );
+    let off = motion_fit_off(dir.path());
     let (mut with_fit, mut without_fit, mut frames) = (0usize, 0usize, 0usize);
     for seed in ["1", "2", "3", "4"] {
         let wav = circling_in_an_office(
@@ -236,14 +240,10 @@ fn a_slow_walker_is_followed_without_lag() {
             &["--synth", "12", "--rotate", "12"],
             seed,
         );
-        let within = |rows: &[CsvEstimate]| {
-            let errs = errors_along_track(&wav, rows, 1.0, 12.0);
-            (errs.iter().filter(|e| e.abs() <= 10.0).count(), errs.len())
-        };
-        let (n, all) = within(&locate(&wav, &[]));
+        let (n, all) = within_10_deg(&wav, &locate(&wav, &[]), 1.0, 12.0);
         with_fit += n;
         frames += all;
-        without_fit += within(&locate(&wav, &["--config", &off])).0;
+        without_fit += within_10_deg(&wav, &locate(&wav, &["--config", &off]), 1.0, 12.0).0;
     }
     let (with_fit, without_fit) = (
         with_fit as f64 / frames as f64,

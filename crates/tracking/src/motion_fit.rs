@@ -392,15 +392,21 @@ mod tests {
         (rest, tail)
     }
 
-    #[test]
-    fn a_talker_who_stops_between_bursts_is_seen_to_stop() {
-        let (rest, tail) = bursts(1.44, 3.0, 300, 400);
+    /// A talker at `v` °/frame who stops after `walk` frames ([`bursts`], 400 frames, ±3°) is
+    /// seen at rest within `within` frames of the stop and no longer drifts at the end.
+    fn seen_to_stop(v: f32, walk: usize, within: usize) {
+        let (rest, tail) = bursts(v, 3.0, walk, 400);
         let rest = rest.expect("never seen at rest");
-        assert!(rest <= 40, "seen at rest {rest} frames after the stop");
+        assert!(rest <= within, "seen at rest {rest} frames after the stop");
         assert!(
             tail.abs() < 2.0,
             "still drifting {tail}° in the last ten frames"
         );
+    }
+
+    #[test]
+    fn a_talker_who_stops_between_bursts_is_seen_to_stop() {
+        seen_to_stop(1.44, 300, 40);
     }
 
     /// A talker at 0.8°/frame (50°/s) who stops after three seconds: the long line still holds
@@ -408,13 +414,7 @@ mod tests {
     /// rest; the line as it was a checkpoint ago does not.
     #[test]
     fn a_slower_talker_who_stops_after_a_short_walk_is_seen_to_stop() {
-        let (rest, tail) = bursts(0.8, 3.0, 190, 400);
-        let rest = rest.expect("never seen at rest");
-        assert!(rest <= 60, "seen at rest {rest} frames after the stop");
-        assert!(
-            tail.abs() < 2.0,
-            "still drifting {tail}° in the last ten frames"
-        );
+        seen_to_stop(0.8, 190, 60);
     }
 
     #[test]
