@@ -16,7 +16,7 @@
 //! [`SIGNIFICANCE`] of its standard errors from the long line's, the talker's motion has changed:
 //! the long line starts again, empty, and the short one speaks until the long one holds the weight
 //! of frames from after the change. (A long line restarted from the short one held frames from
-//! before the change; with the lower least weight below it could report the old speed on them,
+//! before the change; with the early slope below it could report the old speed on them,
 //! drift the reported azimuth out of its own gate and hold that speed for good.)
 //!
 //! Real speech in a room comes in bursts of two or three reliable frames, too short in time for
@@ -35,13 +35,17 @@
 //! The slope drives the grid tracker's prediction whatever its size where it is significant:
 //! the significance test, not a least speed, tells a slow walker from a still talker's noise.
 //!
-//! A talker who starts walking trails the track until the long line has the weight for a slope
-//! ([`MIN_WEIGHT`] of frame reliability, spread over time): that wait is most of the lag of a
-//! talker at 45–90°/s. A talker seen to stop has to show twice that weight
-//! ([`STOPPED_MIN_WEIGHT`]) before he is seen walking again: the frames of a talker who has just
-//! stopped scatter along the room's reflections, and the lower weight read that scatter as a
-//! walk. (Measured on the validation suite, docs/history.md: talkers at 90°/s +2 points within
-//! 10° and −0.4° MAE on four seed sets, those who walk and stop unchanged.)
+//! A talker who starts walking trails the track until the long line has the evidence for a slope
+//! ([`MIN_WEIGHT`] of frame reliability, spread over about 35 frames): that wait is most of the
+//! lag of a fast walker. Half that evidence ([`EARLY_MIN_WEIGHT`]) gives a slope early when it
+//! carries the talker at least [`EARLY_MIN_TRAVEL_DEG`] over one standard deviation of its frames'
+//! times. Over so short a line a still talker's frames lie along the room's reflections, which
+//! differ from syllable to syllable by a few degrees: two bursts of speech a few degrees apart
+//! make a significant slope, and a still talker would drift away in the pause after them. A
+//! talker seen to stop gets no early slope until he is seen walking on the full evidence: the
+//! frames right after a stop scatter the same way. (Measured on the validation suite,
+//! docs/history.md: talkers at 90°/s +2 points within 10° and −0.4° MAE on four seed sets,
+//! still talkers and those who walk and stop unchanged.)
 
 /// Half-width in degrees of the window around the reported azimuth whose frame estimates enter
 /// the fit.
@@ -50,12 +54,15 @@ pub const GATE_DEG: f32 = 20.0;
 pub const SIGNIFICANCE: f32 = 3.0;
 /// Least weight (sum of reliabilities) and least weighted variance of the frame times (frames²)
 /// for the long line's slope.
-pub const MIN_WEIGHT: f32 = 5.0;
-const MIN_SPREAD: f32 = 50.0;
-/// The same after the talker has been seen to stop, until the long line's slope is significant
-/// again.
-pub const STOPPED_MIN_WEIGHT: f32 = 10.0;
-const STOPPED_MIN_SPREAD: f32 = 100.0;
+pub const MIN_WEIGHT: f32 = 10.0;
+const MIN_SPREAD: f32 = 100.0;
+/// The same for an early slope (not after a stop), which must also carry the talker
+/// [`EARLY_MIN_TRAVEL_DEG`].
+pub const EARLY_MIN_WEIGHT: f32 = 5.0;
+const EARLY_MIN_SPREAD: f32 = 50.0;
+/// Least travel of an early slope, degrees: its size times the standard deviation of the line's
+/// frame times.
+pub const EARLY_MIN_TRAVEL_DEG: f32 = 8.0;
 /// Forgetting pole per frame of the short line that detects a change of motion, and its least
 /// weight and time variance.
 pub const SHORT_POLE: f32 = 0.9;
@@ -94,8 +101,7 @@ pub struct MotionFit {
     pending: LineSums,
     /// Frames since the last checkpoint.
     age: u32,
-    /// The talker was seen to stop and has not been seen walking since: the long line's slope
-    /// needs [`STOPPED_MIN_WEIGHT`].
+    /// The talker was seen to stop and has not been seen walking since: no early slope.
     stopped: bool,
 }
 
@@ -183,14 +189,18 @@ impl MotionFit {
         }
     }
 
-    /// The long line's slope and its standard error (as [`MotionFit::velocity`] sees it).
+    /// The long line's slope and its standard error (as [`MotionFit::velocity`] sees it): on
+    /// [`MIN_WEIGHT`], or early (module documentation).
     #[must_use]
     pub fn slope(&self) -> Option<(f32, f32)> {
-        if self.stopped {
-            self.long.slope(STOPPED_MIN_WEIGHT, STOPPED_MIN_SPREAD)
-        } else {
-            self.long.slope(MIN_WEIGHT, MIN_SPREAD)
+        let full = self.long.slope(MIN_WEIGHT, MIN_SPREAD);
+        if full.is_some() || self.stopped {
+            return full;
         }
+        let (v, se) = self.long.slope(EARLY_MIN_WEIGHT, EARLY_MIN_SPREAD)?;
+        // The standard deviation of the frame times: √(Sxx/w) = √den / w.
+        let travel = v.abs() * libm::sqrtf(self.long.den()) / self.long.w;
+        (travel >= EARLY_MIN_TRAVEL_DEG).then_some((v, se))
     }
 }
 
@@ -385,8 +395,8 @@ mod tests {
         })
     }
 
-    /// A walk is seen after [`MIN_WEIGHT`] of frames (about 25 here: the time spread binds), a
-    /// walk after a stop only after [`STOPPED_MIN_WEIGHT`] (about 35).
+    /// A fast walk is seen early, after [`EARLY_MIN_WEIGHT`] of frames (about 25 here: the time
+    /// spread binds), a walk after a stop only on [`MIN_WEIGHT`] (about 35).
     #[test]
     fn a_walk_is_seen_soon_and_a_walk_after_a_stop_on_more_evidence() {
         let first = frames_to_a_slope(MotionFit::new()).expect("no slope");
@@ -400,6 +410,30 @@ mod tests {
             again >= first + 5,
             "{again} frames after a stop, {first} before"
         );
+    }
+
+    /// A still talker heard in two bursts whose frames lie 6° apart (a room's reflections differ
+    /// from syllable to syllable): their line is significant but carries him less than
+    /// [`EARLY_MIN_TRAVEL_DEG`], so it gives no early slope (he would drift in the next pause).
+    #[test]
+    fn a_still_talkers_two_bursts_give_no_early_slope() {
+        let mut fit = MotionFit::new();
+        let mut rng = crate::test_rng::Lcg(17);
+        for i in 0..22 {
+            let (offset, b) = match i {
+                0..6 => (3.0, 1.0),
+                16..22 => (-3.0, 1.0),
+                _ => (f32::NAN, 0.0),
+            };
+            let n = (rng.unit() - 0.5) * 1.0;
+            fit.update(if i == 0 { f32::NAN } else { 0.0 }, 0.99, offset + n, b);
+        }
+        let (v, se) = fit.long.slope(EARLY_MIN_WEIGHT, EARLY_MIN_SPREAD).unwrap();
+        assert!(
+            v.abs() > SIGNIFICANCE * se,
+            "the line is not significant: {v} ± {se}"
+        );
+        assert_eq!(fit.velocity(), None);
     }
 
     /// A change of motion starts the long line again without the frames from before it: a talker
