@@ -197,9 +197,9 @@ fn a_fast_talker_is_followed_through_his_pauses() {
 }
 
 /// Talkers who start circling at 90°/s in an office (RT60 0.4 s, 6 dB) as the scene starts: the
-/// track trails them until the motion fit has the weight for a slope. Measured with these eight
-/// scenes: 68.4 % of the frames from 0.3 to 3 s within 10°, 56.2 % when the slope needed twice
-/// the weight.
+/// track trails them until the motion fit has the evidence for a slope. Measured with these eight
+/// scenes: 66.7 % of the frames from 0.3 to 3 s within 10°, 56.2 % without the motion fit's early
+/// slope.
 #[test]
 fn a_talker_who_starts_walking_is_caught_up_soon() {
     let dir = tempfile::tempdir().unwrap();
@@ -217,7 +217,7 @@ fn a_talker_who_starts_walking_is_caught_up_soon() {
     }
     let share = within as f64 / frames as f64;
     assert!(
-        share >= 0.64,
+        share >= 0.62,
         "{:.1} % within 10° in the first seconds",
         100.0 * share
     );
