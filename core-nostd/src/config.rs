@@ -326,7 +326,7 @@ impl LocatorConfig {
         }
         if c.multi_track.enabled && (c.method != Method::Similarity || !c.multi_track.is_valid()) {
             return invalid(
-                "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains in [0, 1], 0 ≤ off ≤ on ≤ 1, span_gap_frames + span_lead_frames ≤ 24, span_min_frames ≤ span_gap_frames",
+                "multi-talker tracks: similarity method only; finite gates in (0, 180], poles in [0, 1), gains, shares and levels in [0, 1], 0 ≤ off ≤ on ≤ 1, relative_on ≤ unheard_relative_on, span_gap_frames + span_lead_frames ≤ 24, span_min_frames ≤ span_gap_frames",
             );
         }
         if !c.quality.is_valid() {
