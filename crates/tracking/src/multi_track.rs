@@ -759,6 +759,13 @@ mod tests {
         }
     }
 
+    /// A frame in which a talker at `az` has 40 % of the peak weight, the rest diffuse.
+    fn speaking(az: f32) -> [PeakFeature; 10] {
+        let mut peaks = [diffuse(); 10];
+        peaks[..4].fill(peak(az));
+        peaks
+    }
+
     fn frame(state: &mut MultiTrackState, azimuths: &[f32], gate: f32) {
         let peaks: Vec<PeakFeature> = azimuths.iter().map(|a| peak(*a)).collect();
         state.update(&MultiTrack::DEFAULT, &peaks, gate, None);
@@ -997,26 +1004,18 @@ mod tests {
         // diffuse). Then A goes on, and B's direction gets a steady 17 % of every frame's peak
         // weight (A's reverberation), or now and then a syllable of B's own (25 % of one frame in
         // ten).
-        let diffuse = PeakFeature {
-            fi: 0,
-            y: [0.5; 3],
-            weight: 1.0,
-        };
         let weighted = |az: f32, weight: f32| PeakFeature { weight, ..peak(az) };
         let run = |cfg: &MultiTrack, b_speaks: bool| {
             let mut s = MultiTrackState::new();
             for az in [-100.0, 20.0] {
-                let mut peaks = [diffuse; 10];
-                peaks[..4].fill(peak(az));
                 for _ in 0..80 {
-                    s.update(cfg, &peaks, 1.0, None);
+                    s.update(cfg, &speaking(az), 1.0, None);
                 }
             }
             let mut b_active = 0;
             for i in 0..100 {
                 let b = if b_speaks && i % 10 == 0 { 3.0 } else { 1.8 };
-                let mut peaks = [diffuse; 10];
-                peaks[..4].fill(peak(20.0));
+                let mut peaks = speaking(20.0);
                 peaks[4] = weighted(-100.0, b);
                 s.update(cfg, &peaks, 1.0, None);
                 b_active += usize::from(track_near(&s, -100.0).expect("B's track").active);
@@ -1025,16 +1024,14 @@ mod tests {
         };
         let d = MultiTrack::DEFAULT;
         assert_eq!(run(&d, false), 0);
-        assert!(run(&d, true) >= 80, "{}", run(&d, true));
+        let speaks = run(&d, true);
+        assert!(speaks >= 80, "{speaks}");
         let one_threshold = MultiTrack {
             unheard_relative_on: d.relative_on,
             ..d
         };
-        assert!(
-            run(&one_threshold, false) >= 80,
-            "{}",
-            run(&one_threshold, false)
-        );
+        let fed = run(&one_threshold, false);
+        assert!(fed >= 80, "{fed}");
     }
 
     #[test]
@@ -1042,16 +1039,6 @@ mod tests {
         // B (-100°) speaks, then A (20°), each with 40 % of the frames' peak weight (the rest is
         // diffuse). A stops: for 25 frames his reverberation gives both directions a tenth of the
         // peak weight. Then B speaks again.
-        let diffuse = PeakFeature {
-            fi: 0,
-            y: [0.5; 3],
-            weight: 1.0,
-        };
-        let speaking = |az: f32| {
-            let mut peaks = [diffuse; 10];
-            peaks[..4].fill(peak(az));
-            peaks
-        };
         let run = |cfg: &MultiTrack| {
             let mut s = MultiTrackState::new();
             for az in [-100.0, 20.0] {
@@ -1061,7 +1048,7 @@ mod tests {
             }
             let b_active = |s: &MultiTrackState| track_near(s, -100.0).expect("B's track").active;
             let mut tail = 0;
-            let mut tail_peaks = [diffuse; 10];
+            let mut tail_peaks = [diffuse(); 10];
             tail_peaks[0] = peak(20.0);
             tail_peaks[1] = peak(-100.0);
             for _ in 0..25 {
