@@ -399,7 +399,7 @@ impl Default for LocatorConfig {
         c.kernel = CurveKernel::DEFAULT;
         c.peaks.num_peaks = 16;
         c.reliability.v_floor = 0.0004;
-        c.reliability.v_max = 0.003;
+        c.reliability.v_max = 0.0045;
         c.direct_sound.onset_exponent = 1.0;
         c.tracking = Tracking::Grid(DEFAULT_GRID_TRACKER);
         c.noise_gate = DEFAULT_NOISE_GATE;

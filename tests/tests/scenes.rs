@@ -219,15 +219,16 @@ fn a_fast_talker_is_followed_through_his_pauses() {
 
 /// Talkers who start circling at 90°/s in an office (RT60 0.4 s, 6 dB) as the scene starts: the
 /// track trails them until the motion fit has the evidence for a slope. Measured with these eight
-/// scenes: 66.7 % of the frames from 0.3 to 3 s within 10°, 56.2 % without the motion fit's early
-/// slope.
+/// scenes: 58.4 % of the frames from 0.3 to 3 s within 10°, 52.3 % without the motion fit's early
+/// slope (with the reliability scale `v_max` 0.003 before: 66.7 % and 56.2 %; the larger scale
+/// trusts a single frame less, so a talker who sets off is followed later).
 #[test]
 fn a_talker_who_starts_walking_is_caught_up_soon() {
     let seeds = ["1", "2", "3", "4", "5", "6", "7", "8"];
     let motion = ["--synth", "3", "--rotate", "90"];
     let share = share_circling_within_10_deg("start", &motion, &seeds, 0.3, 3.0);
     assert!(
-        share >= 0.62,
+        share >= 0.55,
         "{:.1} % within 10° in the first seconds",
         100.0 * share
     );
