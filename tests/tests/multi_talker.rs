@@ -137,7 +137,7 @@ fn talkers_taking_turns_are_tracked_through_an_imperfect_array() {
             "0.44,0.57,0.5",
         ],
     );
-    // Measured: recall 99.9 %, precision 100 %, mean error 2.28° (its omni parts spread 6.8 times
+    // Measured: recall 99.9 %, precision 100 %, mean error 2.27° (its omni parts spread 6.8 times
     // its dipole parts, so the omni correction waits for the dipole parts' evidence); without the
     // self-calibration 99.9 %, 100 %, 10.7°.
     let m = set_metrics(dir.path(), "turns");

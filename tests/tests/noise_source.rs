@@ -104,8 +104,8 @@ fn a_source_learned_as_a_matched_arrays_capsule_error_is_withdrawn_by_the_talker
     // Capsules matched within ±0.4 dB, a loudspeaker on from power-on: the cold self-calibration
     // takes much of its intensity for omni-part errors once the dipole parts' evidence opens the
     // omni parts' bound; the talker's frames show that his sound does not need that correction,
-    // and it is withdrawn. Measured (MAE after 1 s): 1.33° and 2.80° with the speech check, 6.43°
-    // and 17.32° without it (self-calibration off: 1.33°, 9.92°).
+    // and it is withdrawn. Measured (MAE after 1 s): 1.36° and 1.61° with the speech check, 8.34°
+    // and 16.76° without it (self-calibration off: 1.33°, 9.92°).
     let dir = tempfile::tempdir().unwrap();
     let unchecked = config_file(
         dir.path(),
