@@ -749,7 +749,7 @@ impl Correction {
 /// Share of the dipole parts' sampling noise (as [`add_shrunk_deviations`] counts it) taken off
 /// their spread before it bounds the omni parts' ([`bound_omni_spread`]), down to
 /// [`DIPOLE_SPREAD_FLOOR`] of the spread. See docs/history.md for the measurements behind both.
-pub const DIPOLE_NOISE_SHARE: f32 = 0.5;
+const DIPOLE_NOISE_SHARE: f32 = 0.5;
 
 /// Least share of the dipole parts' estimated spread that [`bound_omni_spread`] keeps after taking
 /// the noise off: young evidence tightens the bound's ratio to at most half of
@@ -758,7 +758,7 @@ pub const DIPOLE_NOISE_SHARE: f32 = 0.5;
 /// than 8). Without it an imperfect array with its capsules' own noise (tests/tests/
 /// self_calibration.rs, omni parts spread 6.8 times the dipole parts) waited 24 s for its
 /// correction (1.52° → 5.77°).
-pub const DIPOLE_SPREAD_FLOOR: f32 = 0.25;
+const DIPOLE_SPREAD_FLOOR: f32 = 0.25;
 
 /// Scales the omni parts' applied deviations about their mean, `omni`, down so that the estimate's
 /// omni parts spread at most `ratio` times as much across the cardioids as its dipole parts
