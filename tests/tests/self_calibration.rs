@@ -76,8 +76,8 @@ fn self_calibration_learns_through_the_capsules_own_noise() {
     let bad = noisy_scene(dir.path(), "imperfect.wav", true, Some("-15"));
     let good = noisy_scene(dir.path(), "ideal.wav", false, Some("-15"));
     // Measured: imperfect on 1.86° (active) / 1.84° (magnitude), off 6.87° / 5.65° (1.52° / 1.55°
-    // on before the omni parts' bound took the dipole parts' noise off; before the
-    // noise was taken off the estimate's cross-powers, on was 5.3°; before the background field
+    // on before the omni parts' bound took the dipole parts' noise off; before the noise was
+    // taken off the estimate's cross-powers, on was 5.3°; before the background field
     // took a directional background's excess off the peaks, on 1.25° / 1.32°, off 17.6° / 12.3°:
     // with the self-calibration off the capsules' omni errors make the background look
     // directional, and the excess takes part of them off); ideal on 0.45° / 1.06°, off 0.36° /

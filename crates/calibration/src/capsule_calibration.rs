@@ -66,9 +66,9 @@
 //! across the cardioids are of a size; the omni parts' spread is applied only up to
 //! [`CapsuleCalibration::max_omni_spread`] times the dipole parts' (the omni parts' as estimated,
 //! the dipole parts' less part of the sampling noise the shrinkage below assigns them, so that
-//! young evidence, whose dipole parts spread by their noise alone, does not open the bound). An ideal
-//! array then stays nearly ideal beside a noise source, from the first seconds on; capsules whose
-//! gain and pattern errors happen to cancel in the dipole parts keep only part of their omni
+//! young evidence, whose dipole parts spread by their noise alone, does not open the bound). An
+//! ideal array then stays nearly ideal beside a noise source, from the first seconds on; capsules
+//! whose gain and pattern errors happen to cancel in the dipole parts keep only part of their omni
 //! correction.
 //!
 //! Capsules matched within a few tenths of a dB have small dipole parts' spreads that still let a
@@ -782,9 +782,9 @@ const DIPOLE_SPREAD_FLOOR: f32 = 0.25;
 /// [`DIPOLE_NOISE_SHARE`] of that noise, but at least [`DIPOLE_SPREAD_FLOOR`] of the spread. Young
 /// evidence, whose dipole parts spread by their noise alone, so holds a matched array's omni parts
 /// nearer the ideal, which a source heard from power-on would otherwise move in the first
-/// seconds; as the evidence grows the noise vanishes and the bound is the estimate's. What it costs: capsules whose gain and pattern errors
-/// happen to cancel in the dipole parts keep only part of their omni correction, and get it a
-/// little later.
+/// seconds; as the evidence grows the noise vanishes and the bound is the estimate's. What it
+/// costs: capsules whose gain and pattern errors happen to cancel in the dipole parts keep only
+/// part of their omni correction, and get it a little later.
 fn bound_omni_spread(omni: &mut [f32; CARDIOIDS], model: &BandModel, ratio: f32, shrinkage: f32) {
     let n = model.peaks;
     if !(n > 0.0) {
