@@ -247,3 +247,72 @@ fn eval_help_defines_its_columns_with_an_example_a_clone_can_run() {
     }
     assert!(!help.contains("shared/data"), "{help}");
 }
+
+/// Writes the CMA1 scene at `cma1` as a first-order AmbiX file (W, Y, Z, X; Z silent) at `out`, its
+/// first-order channels scaled by `first_order` (1 SN3D, √3 N3D).
+fn as_ambix(cma1: &str, out: &std::path::Path, first_order: f32) {
+    let mut r = hound::WavReader::open(cma1).unwrap();
+    let spec = r.spec();
+    let s: Vec<f32> = r
+        .samples::<i16>()
+        .map(|v| f32::from(v.unwrap()) / 32768.0)
+        .collect();
+    let mut w = hound::WavWriter::create(
+        out,
+        hound::WavSpec {
+            channels: 4,
+            sample_rate: spec.sample_rate,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        },
+    )
+    .unwrap();
+    let (c, s3) = (-0.5f32, 3f32.sqrt() / 2.0);
+    for f in s.chunks_exact(4) {
+        // The cardioids' dipole parts D_m = 2·C_m − W; X = ⅔ Σ D_m cos φ_m, Y = ⅔ Σ D_m sin φ_m.
+        let d = [2.0 * f[1] - f[0], 2.0 * f[2] - f[0], 2.0 * f[3] - f[0]];
+        let x = (2.0 / 3.0) * (d[0] + c * d[1] + c * d[2]);
+        let y = (2.0 / 3.0) * (s3 * d[1] - s3 * d[2]);
+        for v in [f[0], y * first_order, 0.0, x * first_order] {
+            w.write_sample(v).unwrap();
+        }
+    }
+    w.finalize().unwrap();
+}
+
+#[test]
+fn ambix_input_is_read_as_its_powers_say_and_the_summary_names_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let cma1 = scene(dir.path(), "s.wav", "3");
+    let (sn3d, n3d) = (dir.path().join("sn3d.wav"), dir.path().join("n3d.wav"));
+    as_ambix(&cma1, &sn3d, 1.0);
+    as_ambix(&cma1, &n3d, 3f32.sqrt());
+    let locate = |p: &std::path::Path, layout: &str| {
+        let o = run(&["locate", p.to_str().unwrap(), "--input-layout", layout]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        o
+    };
+    let auto_n3d = locate(&n3d, "ambix");
+    assert_eq!(auto_n3d.stdout, locate(&n3d, "ambix-n3d").stdout);
+    assert!(
+        stderr(&auto_n3d).starts_with("input: AmbiX read as N3D (first-order power 3.0"),
+        "{}",
+        stderr(&auto_n3d)
+    );
+    let auto_sn3d = locate(&sn3d, "ambix");
+    assert_eq!(auto_sn3d.stdout, locate(&sn3d, "ambix-sn3d").stdout);
+    assert!(stderr(&auto_sn3d).starts_with("input: AmbiX read as SN3D (first-order power 1.0"));
+    // Forced against its powers: a warning, printed also with --quiet.
+    let o = run(&[
+        "locate",
+        n3d.to_str().unwrap(),
+        "--input-layout",
+        "ambix-sn3d",
+        "--quiet",
+    ]);
+    assert!(o.status.success());
+    assert!(
+        stderr(&o).starts_with("warning: input read as SN3D") && stderr(&o).contains("looks N3D")
+    );
+    assert_ne!(o.stdout, auto_n3d.stdout);
+}

@@ -56,8 +56,9 @@ const LOCATE_AFTER_HELP: &str = concat!(
      been seen yet, so nothing is tracked and azimuth_deg is that frame's own untracked estimate \
      (equal to azimuth_raw_deg; the previous row's azimuth, 0 at the start, when the frame has no \
      peak): it jumps from row to row and is not to be relied on. ",
-    "Unless --quiet, stderr ends with a summary: the self-calibration's estimate per band (when \
-     it is on, 5 lines), then the stationary background per band (when the background field is \
+    "Unless --quiet, stderr ends with a summary: for AmbiX input how its normalisation was read \
+     (SN3D or N3D, from its first-order power over the omni's), then the self-calibration's \
+     estimate per band (when it is on, 5 lines), then the stationary background per band (when the background field is \
      on: a band with directivity above 0.3 as a source at its azimuth, else diffuse; its level in \
      dBFS, dB re full-scale mean square, and relative to the median power_db of the frames), then \
      one line counting the frames, those with history and those with NaN/Inf input. Input with NaN/Inf samples (replaced by 0, flag 4 NON_FINITE) still exits 0, \
@@ -117,6 +118,12 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         },
     )?;
     pb.finish_and_clear();
+    if let Some(n) = stream.normalisation() {
+        let line = n.line();
+        if !a.quiet || line.starts_with("warning") {
+            eprintln!("{line}");
+        }
+    }
     let rows = located.rows;
     let audio_s = sample_frames as f64 / f64::from(rate);
     if rows.is_empty() {

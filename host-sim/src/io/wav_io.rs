@@ -10,10 +10,64 @@ use std::path::{Path, PathBuf};
 pub enum InputLayout {
     /// omni, cardioid 0°, cardioid 120°, cardioid 240°.
     Cma1,
-    /// First-order ambisonics, ACN order (W, Y, Z, X), SN3D normalisation.
+    /// First-order ambisonics, ACN order (W, Y, Z, X), SN3D normalisation unless the file's first
+    /// seconds say N3D: their first-order power is 1 × the omni's for SN3D and 3 × for N3D in any
+    /// sound field, and read as N3D from √3 × (the choice is in `locate`'s summary).
     Ambix,
+    /// First-order ambisonics, ACN order, SN3D normalisation whatever the file's powers.
+    AmbixSn3d,
     /// First-order ambisonics, ACN order, N3D normalisation (first-order gains × √3).
     AmbixN3d,
+}
+
+/// Seconds at the start of an AmbiX file whose powers tell its normalisation.
+pub const NORMALISATION_PROBE_S: f64 = 2.0;
+
+/// First-order power over the omni's from which an AmbiX file reads as N3D: the geometric mean of
+/// SN3D's 1 and N3D's 3. A plane wave from any direction and a diffuse field give those ratios
+/// exactly; a recording's own noise moves them (the TAU-2019 clip's N3D background alone: 2.0).
+pub const N3D_POWER_RATIO: f64 = 1.732;
+
+/// What an AmbiX file's first seconds say about its normalisation, and how it was read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normalisation {
+    /// First-order power (X² + Y² + Z²) over the omni's (W²) in the probe; `None` without omni
+    /// power (silence) or without finite samples.
+    pub ratio: Option<f64>,
+    /// Seconds of audio the ratio was measured on (at most [`NORMALISATION_PROBE_S`]).
+    pub probe_s: f64,
+    /// The file is read as N3D (its first-order channels scaled by 1/√3).
+    pub n3d: bool,
+    /// The layout chose the normalisation from the ratio ([`InputLayout::Ambix`]).
+    pub detected: bool,
+}
+
+impl Normalisation {
+    /// One summary line: how the file was read and why, or a warning when its powers contradict
+    /// an explicit layout.
+    #[must_use]
+    pub fn line(&self) -> String {
+        let name = if self.n3d { "N3D" } else { "SN3D" };
+        let probe = self.probe_s;
+        let Some(r) = self.ratio else {
+            return format!(
+                "input: AmbiX read as {name} (no signal in the first {probe:.2} s to tell SN3D from N3D)"
+            );
+        };
+        let measured =
+            format!("first-order power {r:.2} × the omni's over the first {probe:.2} s; SN3D gives 1, N3D 3");
+        if self.detected {
+            format!("input: AmbiX read as {name} ({measured}; --input-layout ambix-sn3d or ambix-n3d sets it)")
+        } else if self.n3d == (r >= N3D_POWER_RATIO) {
+            format!("input: AmbiX read as {name} ({measured})")
+        } else {
+            let other = if self.n3d { "SN3D" } else { "N3D" };
+            format!(
+                "warning: input read as {name}, as --input-layout says, but it looks {other} \
+                 ({measured}); --input-layout ambix reads it as its powers say"
+            )
+        }
+    }
 }
 
 /// A decoded 4-channel recording in CMA1 order, full scale ±1.
@@ -519,12 +573,24 @@ pub fn read_four_channels(path: &Path, layout: &'static str) -> Result<(hound::W
 }
 
 /// A 4-channel recording read chunk by chunk and converted to CMA1 order.
+///
+/// An AmbiX file's first [`NORMALISATION_PROBE_S`] seconds are read ahead and held (at most
+/// 4 × 4 bytes × 2 s × the rate: 1.5 MB at 48 kHz) to measure its normalisation before any frame is
+/// converted; they are then delivered chunk by chunk like the rest, so a pipe still works.
 pub struct RecordingStream {
     wav: WavStream,
     layout: InputLayout,
     raw: Vec<f32>,
     /// Converted frames of an AmbiX chunk.
     frames: Vec<[f32; 4]>,
+    /// Interleaved samples read ahead for the normalisation probe, delivered from `held_at`.
+    held: Vec<f32>,
+    held_at: usize,
+    /// The error the read-ahead met, returned once the samples before it are delivered.
+    pending: Option<SimError>,
+    /// Gain applied to an AmbiX file's first-order channels (1 for SN3D, 1/√3 for N3D).
+    first_order_gain: f32,
+    normalisation: Option<Normalisation>,
 }
 
 impl RecordingStream {
@@ -551,7 +617,59 @@ impl RecordingStream {
             layout,
             raw: Vec::new(),
             frames: Vec::new(),
+            held: Vec::new(),
+            held_at: 0,
+            pending: None,
+            first_order_gain: 1.0,
+            normalisation: None,
         })
+    }
+
+    /// How an AmbiX file's normalisation was read (`None` for CMA1, or before the first chunk).
+    #[must_use]
+    pub fn normalisation(&self) -> Option<Normalisation> {
+        self.normalisation
+    }
+
+    /// Reads the first [`NORMALISATION_PROBE_S`] seconds ahead into `held`, measures the ratio of
+    /// their first-order power to the omni's and sets the first-order gain the layout asks for.
+    fn probe(&mut self) {
+        let rate = self.wav.spec.sample_rate;
+        let want = (NORMALISATION_PROBE_S * f64::from(rate)) as usize * 4;
+        while self.held.len() < want {
+            match self.wav.read_chunk(&mut self.raw) {
+                Ok(()) if self.raw.is_empty() => break,
+                Ok(()) => self.held.extend_from_slice(&self.raw),
+                Err(e) => {
+                    self.pending = Some(e);
+                    break;
+                }
+            }
+        }
+        let probed = self.held.len().min(want);
+        let (frames, _) = self.held[..probed].as_chunks::<4>();
+        let (mut omni, mut first) = (0.0f64, 0.0f64);
+        for c in frames {
+            let [w, y, z, x] = c.map(f64::from);
+            let f = x * x + y * y + z * z;
+            if w.is_finite() && f.is_finite() {
+                omni += w * w;
+                first += f;
+            }
+        }
+        let ratio = (omni > 0.0).then(|| first / omni).filter(|r| r.is_finite());
+        let n3d = match self.layout {
+            InputLayout::Ambix => ratio.is_some_and(|r| r >= N3D_POWER_RATIO),
+            InputLayout::AmbixN3d => true,
+            InputLayout::AmbixSn3d | InputLayout::Cma1 => false,
+        };
+        self.first_order_gain = if n3d { 1.0 / 3f32.sqrt() } else { 1.0 };
+        self.normalisation = Some(Normalisation {
+            ratio,
+            probe_s: frames.len() as f64 / f64::from(rate),
+            n3d,
+            detected: self.layout == InputLayout::Ambix,
+        });
     }
 
     /// Sample rate, Hz.
@@ -585,24 +703,39 @@ impl RecordingStream {
     /// (a CMA1 file's samples are not copied again: the decoded interleaved samples are the frames);
     /// empty at the end. Errors as [`WavStream::read_chunk`].
     pub fn next_chunk(&mut self) -> Result<&[[f32; 4]]> {
-        self.wav.read_chunk(&mut self.raw)?;
-        // `read_chunk` returns whole sample frames of the 4 channels `open` checked.
-        let (c, _) = self.raw.as_chunks::<4>();
-        let convert = |g: f32| {
-            c.iter()
-                .map(move |c| ambix_to_cma1(c[0], c[3] * g, c[1] * g))
-        };
-        match self.layout {
-            InputLayout::Cma1 => return Ok(c),
-            InputLayout::Ambix => {
-                self.frames.clear();
-                self.frames.extend(convert(1.0));
-            }
-            InputLayout::AmbixN3d => {
-                self.frames.clear();
-                self.frames.extend(convert(1.0 / 3f32.sqrt()));
-            }
+        if self.layout == InputLayout::Cma1 {
+            self.wav.read_chunk(&mut self.raw)?;
+            // `read_chunk` returns whole sample frames of the 4 channels `open` checked.
+            return Ok(self.raw.as_chunks::<4>().0);
         }
+        if self.normalisation.is_none() {
+            self.probe();
+        }
+        let source = if self.held_at < self.held.len() {
+            let end = (self.held_at + CHUNK_FRAMES * 4).min(self.held.len());
+            let range = self.held_at..end;
+            self.held_at = end;
+            &self.held[range]
+        } else {
+            if !self.held.is_empty() {
+                self.held = Vec::new();
+                self.held_at = 0;
+            }
+            if let Some(e) = self.pending.take() {
+                return Err(e);
+            }
+            self.wav.read_chunk(&mut self.raw)?;
+            &self.raw[..]
+        };
+        let g = self.first_order_gain;
+        self.frames.clear();
+        self.frames.extend(
+            source
+                .as_chunks::<4>()
+                .0
+                .iter()
+                .map(|c| ambix_to_cma1(c[0], c[3] * g, c[1] * g)),
+        );
         Ok(&self.frames)
     }
 }
@@ -868,5 +1001,151 @@ mod tests {
             "{e}"
         );
         assert!(read_recording(&p, InputLayout::Cma1).is_err());
+    }
+
+    /// Writes a 1-channel-per-component AmbiX file (float) of a sound field: a noise plane wave
+    /// from 40° azimuth, 10° up, and weaker 3-D diffuse noise (eight plane waves of independent
+    /// noise from the cube's corners), its first-order channels scaled by `first_order` (1 SN3D,
+    /// √3 N3D).
+    fn ambix_field(p: &Path, frames: usize, first_order: f32) {
+        let spec = hound::WavSpec {
+            channels: 4,
+            sample_rate: 16000,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        };
+        let mut w = hound::WavWriter::create(p, spec).unwrap();
+        let mut rng = crate::simulation::signal::Rng::new(7);
+        let corner = 1.0 / 3f32.sqrt();
+        let mut waves = vec![(
+            0.25f32,
+            [
+                40f32.to_radians().cos() * 10f32.to_radians().cos(),
+                40f32.to_radians().sin() * 10f32.to_radians().cos(),
+                10f32.to_radians().sin(),
+            ],
+        )];
+        for k in 0..8 {
+            let sign = |b: usize| if k & b == 0 { corner } else { -corner };
+            waves.push((0.05, [sign(1), sign(2), sign(4)]));
+        }
+        for _ in 0..frames {
+            let mut b = [0.0f32; 4];
+            for (gain, u) in &waves {
+                let x = gain * rng.gaussian() as f32;
+                b[0] += x;
+                for k in 0..3 {
+                    b[k + 1] += x * u[k];
+                }
+            }
+            // ACN order: W, Y, Z, X.
+            for v in [
+                b[0],
+                b[2] * first_order,
+                b[3] * first_order,
+                b[1] * first_order,
+            ] {
+                w.write_sample(v).unwrap();
+            }
+        }
+        w.finalize().unwrap();
+    }
+
+    /// `ambix` reads an N3D file as N3D and an SN3D one as SN3D, from their powers: both give the
+    /// same frames; `ambix-sn3d` forced on the N3D file reads it as SN3D and warns.
+    #[test]
+    fn ambix_normalisation_is_read_from_the_powers() {
+        let dir = tempfile::tempdir().unwrap();
+        let (sn3d, n3d) = (dir.path().join("sn3d.wav"), dir.path().join("n3d.wav"));
+        // Longer than the probe and than a chunk: the held frames and the streamed ones join.
+        let n = 40_000;
+        ambix_field(&sn3d, n, 1.0);
+        ambix_field(&n3d, n, 3f32.sqrt());
+        let read = |p: &Path, layout| {
+            let mut s = RecordingStream::open(p, layout).unwrap();
+            let frames = read_all(s.capacity_frames(), |c| s.read_chunk(c)).unwrap();
+            (frames, s.normalisation().unwrap())
+        };
+        let (a, na) = read(&sn3d, InputLayout::Ambix);
+        let (b, nb) = read(&n3d, InputLayout::Ambix);
+        let (forced, nf) = read(&n3d, InputLayout::AmbixSn3d);
+        let (explicit, _) = read(&n3d, InputLayout::AmbixN3d);
+        assert_eq!(a.len(), n);
+        assert_eq!(b.len(), n);
+        let ra = na.ratio.unwrap();
+        let rb = nb.ratio.unwrap();
+        assert!(
+            (ra - 1.0).abs() < 0.05 && (rb - 3.0).abs() < 0.15,
+            "{ra} {rb}"
+        );
+        assert!(!na.n3d && nb.n3d && !nf.n3d, "{na:?} {nb:?} {nf:?}");
+        assert!((na.probe_s - NORMALISATION_PROBE_S).abs() < 1e-9);
+        let worst = a
+            .iter()
+            .zip(&b)
+            .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "{worst}");
+        assert_eq!(b, explicit);
+        assert!(forced.iter().zip(&a).any(|(x, y)| x != y));
+        assert!(
+            nb.line().starts_with("input: AmbiX read as N3D"),
+            "{}",
+            nb.line()
+        );
+        assert!(
+            nf.line().starts_with("warning") && nf.line().contains("looks N3D"),
+            "{}",
+            nf.line()
+        );
+        // The same file through a pipe-like stream (no declared length) reads the same.
+        assert_eq!(read_recording(&n3d, InputLayout::Ambix).unwrap().frames, b);
+    }
+
+    /// Silence tells nothing: read as SN3D, and the summary says why.
+    #[test]
+    fn silent_ambix_reads_as_sn3d() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("silent.wav");
+        four_channel_zero_wav(&p, 3000);
+        let mut s = RecordingStream::open(&p, InputLayout::Ambix).unwrap();
+        let frames = read_all(s.capacity_frames(), |c| s.read_chunk(c)).unwrap();
+        assert_eq!(frames.len(), 3000);
+        let n = s.normalisation().unwrap();
+        assert!(n.ratio.is_none() && !n.n3d, "{n:?}");
+        assert!(n.line().contains("no signal"), "{}", n.line());
+    }
+
+    fn four_channel_zero_wav(p: &Path, frames: usize) {
+        let spec = hound::WavSpec {
+            channels: 4,
+            sample_rate: 16000,
+            bits_per_sample: 16,
+            sample_format: hound::SampleFormat::Int,
+        };
+        let mut w = hound::WavWriter::create(p, spec).unwrap();
+        for _ in 0..frames * 4 {
+            w.write_sample(0i32).unwrap();
+        }
+        w.finalize().unwrap();
+    }
+
+    /// An AmbiX file cut inside its probe: the frames before the cut come first, then the error.
+    #[test]
+    fn ambix_truncation_is_reported_after_the_held_frames() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("cut.wav");
+        let n = CHUNK_FRAMES + 100;
+        four_channel_wav(&p, n);
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 50 * 8 - 3]).unwrap();
+        let mut s = RecordingStream::open(&p, InputLayout::Ambix).unwrap();
+        let mut chunk = Vec::new();
+        s.read_chunk(&mut chunk).unwrap();
+        assert_eq!(chunk.len(), CHUNK_FRAMES);
+        s.read_chunk(&mut chunk).unwrap();
+        assert_eq!(chunk.len(), 49);
+        let e = s.read_chunk(&mut chunk).unwrap_err().to_string();
+        assert!(e.contains("truncated"), "{e}");
     }
 }
