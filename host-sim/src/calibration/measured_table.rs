@@ -811,6 +811,7 @@ mod tests {
             let rec = Recording {
                 rate: s.rate,
                 frames: s.frames,
+                normalisation: None,
             };
             // A measured table already describes the capsules: the self-calibration is off with it,
             // as `--table` switches it off.

@@ -47,6 +47,9 @@ pub struct BeamArgs {
 /// Runs `host-sim beam`.
 pub fn run(a: &BeamArgs) -> Result<()> {
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
+    if let Some(n) = rec.normalisation {
+        eprintln!("{}", n.line());
+    }
     let config = a.config.config()?;
     let table = a.config.ideal_table()?;
     let steer = match a.steer.as_str() {

@@ -54,6 +54,9 @@ pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
         .map(selfcal_file::read)
         .transpose()?;
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
+    if let Some(n) = rec.normalisation {
+        eprintln!("{}", n.line());
+    }
     let lines = board_lines::lines(&rec, config, table, start.as_ref())?;
     Ok((rec.rate, lines))
 }

@@ -77,6 +77,8 @@ pub struct Recording {
     pub rate: u32,
     /// Sample frames.
     pub frames: Vec<[f32; 4]>,
+    /// How an AmbiX file's normalisation was read (`None` for CMA1).
+    pub normalisation: Option<Normalisation>,
 }
 
 /// Sample frames per chunk a [`WavStream`] reads and decodes at a time (a multiple of the locator's
@@ -747,6 +749,7 @@ pub fn read_recording(path: &Path, layout: InputLayout) -> Result<Recording> {
     Ok(Recording {
         rate: stream.rate(),
         frames,
+        normalisation: stream.normalisation(),
     })
 }
 
