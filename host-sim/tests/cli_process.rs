@@ -154,11 +154,12 @@ fn non_finite_input_is_counted_and_warned_about() {
     };
     let mut wr = hound::WavWriter::create(&wav, spec).unwrap();
     for i in 0..16000 * 4 {
-        // All NaN but the last tenth.
+        // All NaN but the last tenth: there a sound without direction (each cardioid half the
+        // omni, as an array hears a pressure-only field).
         let x = if i < 16000 * 4 * 9 / 10 {
             f32::NAN
         } else {
-            (i as f32 * 0.05).sin() * 0.1
+            ((i / 4) as f32 * 0.05).sin() * 0.1 * [1.0, 0.5, 0.5, 0.5][i % 4]
         };
         wr.write_sample(x).unwrap();
     }
@@ -315,4 +316,31 @@ fn ambix_input_is_read_as_its_powers_say_and_the_summary_names_it() {
         stderr(&o).starts_with("warning: input read as SN3D") && stderr(&o).contains("looks N3D")
     );
     assert_ne!(o.stdout, auto_n3d.stdout);
+}
+
+#[test]
+fn a_disconnected_cardioid_is_named_even_with_quiet() {
+    let dir = tempfile::tempdir().unwrap();
+    let wired = scene(dir.path(), "s.wav", "3");
+    let o = run(&["locate", &wired, "--quiet"]);
+    assert!(o.status.success());
+    assert_eq!(stderr(&o), "", "a wired array raises no warning");
+    let mut r = hound::WavReader::open(&wired).unwrap();
+    let spec = r.spec();
+    let samples: Vec<i16> = r.samples::<i16>().map(|v| v.unwrap()).collect();
+    let dead = dir.path().join("dead.wav");
+    let mut w = hound::WavWriter::create(&dead, spec).unwrap();
+    for (i, v) in samples.iter().enumerate() {
+        // Channel 3: the cardioid looking 120°.
+        w.write_sample(if i % 4 == 2 { 0 } else { *v }).unwrap();
+    }
+    w.finalize().unwrap();
+    let o = run(&["locate", dead.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.starts_with("warning: input: the cardioid looking 120° (channel 3)")
+            && e.contains("connected"),
+        "{e}"
+    );
 }

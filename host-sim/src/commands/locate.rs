@@ -62,7 +62,9 @@ const LOCATE_AFTER_HELP: &str = concat!(
      on: a band with directivity above 0.3 as a source at its azimuth, else diffuse; its level in \
      dBFS, dB re full-scale mean square, and relative to the median power_db of the frames), then \
      one line counting the frames, those with history and those with NaN/Inf input. Input with NaN/Inf samples (replaced by 0, flag 4 NON_FINITE) still exits 0, \
-     with a warning line on stderr (also with --quiet).",
+     with a warning line on stderr (also with --quiet); so does a recording whose channels do not \
+     fit an omni and three cardioids at one point (a cardioid not connected, the omni on another \
+     channel, a reversed polarity).",
 );
 
 /// `-` for standard input or output, as a path.
@@ -118,6 +120,9 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         },
     )?;
     pb.finish_and_clear();
+    if let Some(warning) = stream.wiring().warning() {
+        eprintln!("{warning}");
+    }
     if let Some(n) = stream.normalisation() {
         let line = n.line();
         if !a.quiet || line.starts_with("warning") {

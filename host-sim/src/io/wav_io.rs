@@ -28,6 +28,118 @@ pub const NORMALISATION_PROBE_S: f64 = 2.0;
 /// exactly; a recording's own noise moves them (the TAU-2019 clip's N3D background alone: 2.0).
 pub const N3D_POWER_RATIO: f64 = 1.732;
 
+/// A cardioid this many dB below what the other three capsules say it should hear is not connected
+/// (or its gain is far off): three cardioids 120° apart add up to 1.5 × the omni in any sound field,
+/// so C_m = 1.5·W − (the other two) predicts it, even for a cardioid facing away from the only
+/// source (both then nearly silent).
+pub const DEAD_CARDIOID_DB: f64 = -15.0;
+
+/// A cardioid this many dB above the omni is not a cardioid beside an omni (an ideal one never
+/// exceeds it, a capsule 1.5 dB hot by about that): the omni is not on the first channel.
+pub const LOUD_CARDIOID_DB: f64 = 3.0;
+
+/// Largest power of C₁ + C₂ + C₃ − 1.5·W relative to that of 1.5·W for a wired array: only the
+/// capsules' errors and own noise leave one, at most 0.11 on the validation suite's arrays (gains
+/// ±1.5 dB, patterns β 0.38–0.62, capsule noise); a cardioid of reversed polarity leaves about 0.8,
+/// the omni on a cardioid's channel more than 1.
+pub const WIRING_RESIDUAL: f64 = 0.3;
+
+/// Sums over a CMA1 recording that check its wiring: does it hold an omni and three cardioids
+/// looking 0°, 120°, 240° from one point?
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WiringSums {
+    /// Σ x_i·x_j of the four channels (omni, cardioid 0°, 120°, 240°), i ≤ j, row by row.
+    products: [f64; 10],
+}
+
+impl WiringSums {
+    /// Index of Σ x_i·x_j (i ≤ j) in `products`.
+    const fn at(i: usize, j: usize) -> usize {
+        let (i, j) = if i <= j { (i, j) } else { (j, i) };
+        i * 4 - i * (i + 1) / 2 + j
+    }
+
+    /// Σ x_i·x_j.
+    fn sum(&self, i: usize, j: usize) -> f64 {
+        self.products[Self::at(i, j)]
+    }
+
+    /// Adds sample frames (omni, cardioid 0°, 120°, 240°); frames with a non-finite sample are
+    /// left out.
+    pub fn add(&mut self, frames: &[[f32; 4]]) {
+        for f in frames {
+            let x = f.map(f64::from);
+            if x.iter().all(|v| v.is_finite()) {
+                for i in 0..4 {
+                    for j in i..4 {
+                        self.products[Self::at(i, j)] += x[i] * x[j];
+                    }
+                }
+            }
+        }
+    }
+
+    /// Σ (Σ_k c_k·x_k)² for the channel weights `c`.
+    fn power(&self, c: [f64; 4]) -> f64 {
+        let mut p = 0.0;
+        for i in 0..4 {
+            for j in 0..4 {
+                p += c[i] * c[j] * self.sum(i, j);
+            }
+        }
+        p
+    }
+
+    /// A warning line when the sums do not fit an omni and three cardioids at one point (a dead
+    /// or quiet cardioid, the omni on another channel, a reversed polarity); `None` when they fit
+    /// or the omni is silent. (Cardioids in mirrored order fit: their azimuths come out mirrored.)
+    #[must_use]
+    pub fn warning(&self) -> Option<String> {
+        let omni = self.sum(0, 0);
+        if !(omni > 0.0) {
+            return None;
+        }
+        let db = |p: f64, re: f64| 10.0 * (p / re).log10();
+        for (m, look) in cma_core::CARDIOID_LOOK_DEG.iter().enumerate() {
+            let own = self.sum(m + 1, m + 1);
+            // What the other three capsules say this one hears: 1.5·W less the other two.
+            let mut c = [1.5, -1.0, -1.0, -1.0];
+            c[m + 1] = 0.0;
+            let predicted = self.power(c);
+            if db(predicted, omni) > DEAD_CARDIOID_DB && db(own, predicted) < DEAD_CARDIOID_DB {
+                let below = if own > 0.0 {
+                    format!("{:.0} dB", -db(own, predicted))
+                } else {
+                    "infinitely".into()
+                };
+                return Some(format!(
+                    "warning: input: the cardioid looking {look}° (channel {}) reads {below} below \
+                     what the omni and the other two cardioids say it hears: is it connected?",
+                    m + 2
+                ));
+            }
+            if db(own, omni) > LOUD_CARDIOID_DB {
+                return Some(format!(
+                    "warning: input: the cardioid looking {look}° (channel {}) reads {:.1} dB above \
+                     the omni: is the omni on channel 1 (omni, cardioid 0°, 120°, 240°)?",
+                    m + 2,
+                    db(own, omni)
+                ));
+            }
+        }
+        let residual = self.power([-1.5, 1.0, 1.0, 1.0]) / (2.25 * omni);
+        (residual > WIRING_RESIDUAL).then(|| {
+            format!(
+                "warning: input: the three cardioids do not add up to 1.5 × the omni as cardioids \
+                 looking 0°, 120°, 240° beside it do ({:.0} % of its power is left over, a wired \
+                 array leaves under 11 %): is a capsule's polarity reversed, or the omni on another \
+                 channel?",
+                100.0 * residual
+            )
+        })
+    }
+}
+
 /// What an AmbiX file's first seconds say about its normalisation, and how it was read.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Normalisation {
@@ -593,6 +705,7 @@ pub struct RecordingStream {
     /// Gain applied to an AmbiX file's first-order channels (1 for SN3D, 1/√3 for N3D).
     first_order_gain: f32,
     normalisation: Option<Normalisation>,
+    wiring: WiringSums,
 }
 
 impl RecordingStream {
@@ -624,7 +737,15 @@ impl RecordingStream {
             pending: None,
             first_order_gain: 1.0,
             normalisation: None,
+            wiring: WiringSums::default(),
         })
+    }
+
+    /// The wiring check's sums over the CMA1 frames delivered so far (empty for AmbiX input, whose
+    /// conversion makes an ideal array).
+    #[must_use]
+    pub fn wiring(&self) -> WiringSums {
+        self.wiring
     }
 
     /// How an AmbiX file's normalisation was read (`None` for CMA1, or before the first chunk).
@@ -708,7 +829,9 @@ impl RecordingStream {
         if self.layout == InputLayout::Cma1 {
             self.wav.read_chunk(&mut self.raw)?;
             // `read_chunk` returns whole sample frames of the 4 channels `open` checked.
-            return Ok(self.raw.as_chunks::<4>().0);
+            let frames = self.raw.as_chunks::<4>().0;
+            self.wiring.add(frames);
+            return Ok(frames);
         }
         if self.normalisation.is_none() {
             self.probe();
@@ -1150,5 +1273,54 @@ mod tests {
         assert_eq!(chunk.len(), 49);
         let e = s.read_chunk(&mut chunk).unwrap_err().to_string();
         assert!(e.contains("truncated"), "{e}");
+    }
+
+    /// Frames of an array in a field of random W, X, Y (a diffuse-like field): cardioid m =
+    /// g_m·((1 − β_m)·W + β_m·(X cos φ_m + Y sin φ_m)).
+    fn array_frames(gain_db: [f32; 3], beta: [f32; 3]) -> Vec<[f32; 4]> {
+        let mut rng = crate::simulation::signal::Rng::new(3);
+        (0..20_000)
+            .map(|_| {
+                let [w, x, y] = [0; 3].map(|_| rng.gaussian() as f32);
+                let mut f = [w, 0.0, 0.0, 0.0];
+                for m in 0..3 {
+                    let a = cma_core::CARDIOID_LOOK_DEG[m].to_radians();
+                    let g = 10f32.powf(gain_db[m] / 20.0);
+                    f[m + 1] =
+                        g * ((1.0 - beta[m]) * w + beta[m] * 0.58 * (x * a.cos() + y * a.sin()));
+                }
+                f
+            })
+            .collect()
+    }
+
+    /// The wiring check is silent for ideal and imperfect arrays and names a dead cardioid, the
+    /// omni on a cardioid's channel and a reversed polarity.
+    #[test]
+    fn the_wiring_check_names_what_is_miswired() {
+        let check = |frames: &[[f32; 4]]| {
+            let mut w = WiringSums::default();
+            w.add(frames);
+            w.warning()
+        };
+        let ideal = array_frames([0.0; 3], [0.5; 3]);
+        assert_eq!(check(&ideal), None);
+        let imperfect = array_frames([1.5, -1.5, 0.5], [0.38, 0.62, 0.45]);
+        assert_eq!(check(&imperfect), None);
+        let dead: Vec<_> = ideal.iter().map(|f| [f[0], f[1], 0.0, f[3]]).collect();
+        let e = check(&dead).unwrap();
+        assert!(
+            e.contains("120°") && e.contains("channel 3") && e.contains("connected"),
+            "{e}"
+        );
+        let swapped: Vec<_> = ideal.iter().map(|f| [f[1], f[0], f[2], f[3]]).collect();
+        let e = check(&swapped).unwrap();
+        assert!(e.contains("above the omni"), "{e}");
+        let reversed: Vec<_> = ideal.iter().map(|f| [f[0], -f[1], f[2], f[3]]).collect();
+        let e = check(&reversed).unwrap();
+        assert!(e.contains("polarity"), "{e}");
+        // Silence and non-finite samples say nothing.
+        assert_eq!(check(&[[0.0; 4]; 100]), None);
+        assert_eq!(check(&[[f32::NAN; 4]; 100]), None);
     }
 }
