@@ -344,3 +344,136 @@ fn a_disconnected_cardioid_is_named_even_with_quiet() {
         "{e}"
     );
 }
+
+/// No output overwrites an input or another output of the same command, whatever name leads to it
+/// (the file itself, a link, `./`): refused as a usage error before anything is written.
+#[test]
+fn outputs_never_overwrite_inputs_or_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let wav = scene(dir.path(), "in.wav", "1");
+    let before = std::fs::read(&wav).unwrap();
+    let link = dir.path().join("link.csv");
+    std::os::unix::fs::symlink(&wav, &link).unwrap();
+    let dotted = dir.path().join(".").join("in.wav");
+    let (l, d) = (link.to_str().unwrap(), dotted.to_str().unwrap());
+    let t = dir.path().join("t.csv");
+    let t = t.to_str().unwrap();
+    for (args, says) in [
+        (
+            vec!["locate", &wav, "-q", "--csv", &wav],
+            "would overwrite the input",
+        ),
+        (
+            vec!["locate", &wav, "-q", "--csv", l],
+            "would overwrite the input",
+        ),
+        (vec!["beam", &wav, "--out", d], "would overwrite the input"),
+        (
+            vec!["beam", &wav, "--out", t, "--steering-csv", &wav],
+            "would overwrite",
+        ),
+        (
+            vec!["locate", &wav, "--tracks", t, "--csv", t],
+            "are the same file",
+        ),
+        (
+            vec!["scene", "--synth", "1", "--out", t, "--manifest", t],
+            "are the same file",
+        ),
+        (
+            vec!["scene", "--rir", &wav, "--out", &wav, "--synth", "1"],
+            "would overwrite",
+        ),
+    ] {
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert_eq!(std::fs::read(&wav).unwrap(), before, "{args:?}");
+        assert!(!std::path::Path::new(t).exists(), "{args:?}");
+    }
+    // Two outputs to /dev/null are fine.
+    let o = run(&[
+        "locate",
+        &wav,
+        "-q",
+        "--csv",
+        "/dev/null",
+        "--tracks",
+        "/dev/null",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A scene is not appended to a manifest of the other kind, and a missing manifest folder is
+/// refused before the scene is written; a sweep's absurd rate is a usage error, not an abort.
+#[test]
+fn scene_manifests_and_sweep_rates_are_checked_before_any_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let multi = dir.path().join("m");
+    std::fs::create_dir(&multi).unwrap();
+    let manifest = multi.join("manifest.csv");
+    std::fs::write(&manifest, "file,set,talkers,note\n").unwrap();
+    let out = dir.path().join("s.wav");
+    let (o_, m) = (out.to_str().unwrap(), manifest.to_str().unwrap());
+    let missing = dir.path().join("nowhere").join("manifest.csv");
+    for (args, says) in [
+        (
+            vec!["scene", "--synth", "1", "--out", o_, "--manifest", m],
+            "not the single-talker",
+        ),
+        (
+            vec![
+                "scene",
+                "--synth",
+                "1",
+                "--out",
+                o_,
+                "--manifest",
+                missing.to_str().unwrap(),
+            ],
+            "does not exist",
+        ),
+    ] {
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_ne!(o.status.code(), Some(0), "{args:?}: {e}");
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(!out.exists(), "{args:?}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(&manifest).unwrap(),
+        "file,set,talkers,note\n"
+    );
+    let o = run(&["sweep", "--out", o_, "--rate", "4000000000"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--rate"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
+/// Re-rendering a scene under the same name leaves no truth file of the old one behind: a noise
+/// truth without noise sources now, a third talker's truth for a scene of two.
+#[test]
+fn a_re_rendered_scene_leaves_no_stale_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.wav");
+    let o_ = out.to_str().unwrap();
+    let noise = dir.path().join("x.noise.csv");
+    let args = ["scene", "--synth", "1", "--out", o_, "--azimuth", "10"];
+    let o = run(&[&args[..], &["--noise-source", "fan,az=40"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(noise.exists());
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!noise.exists());
+    let third = dir.path().join("x.talker3.csv");
+    let multi = ["scene", "--synth", "3", "--out", o_, "--talkers"];
+    assert!(run(&[&multi[..], &["3"]].concat()).status.success());
+    assert!(third.exists());
+    assert!(run(&[&multi[..], &["2"]].concat()).status.success());
+    assert!(!third.exists());
+    // A file of that name that is not a truth file is left alone.
+    std::fs::write(&noise, "mine\n").unwrap();
+    assert!(run(&args).status.success());
+    assert_eq!(std::fs::read_to_string(&noise).unwrap(), "mine\n");
+}

@@ -31,19 +31,36 @@ impl Default for SweepSpec {
     }
 }
 
+/// Lowest sample rate of a sweep, Hz.
+pub const MIN_RATE_HZ: u32 = 8_000;
+/// Highest sample rate of a sweep, Hz (a 60 s sweep at this rate is 46 MB of samples).
+pub const MAX_RATE_HZ: u32 = 192_000;
+
 impl SweepSpec {
     /// Checks 0 < f₁ < f₂ ≤ rate/2 and 0.1 s ≤ T ≤ 60 s.
     pub fn validate(&self) -> Result<()> {
-        let nyq = f64::from(self.rate) / 2.0;
-        if !(self.f1 > 0.0 && self.f1 < self.f2 && self.f2 <= nyq) {
+        if !(MIN_RATE_HZ..=MAX_RATE_HZ).contains(&self.rate) {
             return Err(SimError::Usage(format!(
-                "sweep: need 0 < f1 < f2 ≤ rate/2 = {nyq} Hz, got f1 = {} Hz, f2 = {} Hz",
+                "--rate: expected {MIN_RATE_HZ}–{MAX_RATE_HZ} Hz, got {}",
+                self.rate
+            )));
+        }
+        let nyq = f64::from(self.rate) / 2.0;
+        if !(self.f1 > 0.0 && self.f1 < self.f2) {
+            return Err(SimError::Usage(format!(
+                "--f1, --f2: need 0 < f1 < f2, got f1 = {} Hz, f2 = {} Hz",
                 self.f1, self.f2
+            )));
+        }
+        if !(self.f2 <= nyq) {
+            return Err(SimError::Usage(format!(
+                "--f2: {} Hz is above half of --rate {} Hz; give --f2 {nyq} or less",
+                self.f2, self.rate
             )));
         }
         if !(0.1..=60.0).contains(&self.seconds) {
             return Err(SimError::Usage(format!(
-                "sweep: duration must be 0.1–60 s, got {} s",
+                "--seconds: expected 0.1–60 s, got {}",
                 self.seconds
             )));
         }

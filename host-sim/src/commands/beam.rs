@@ -46,6 +46,12 @@ pub struct BeamArgs {
 
 /// Runs `host-sim beam`.
 pub fn run(a: &BeamArgs) -> Result<()> {
+    let mut inputs = vec![("input", a.input.as_path())];
+    inputs.extend(a.config.input_files());
+    let mut outputs = vec![("--out", a.out.as_path())];
+    outputs.extend(a.reverse.as_deref().map(|p| ("--reverse", p)));
+    outputs.extend(a.steering_csv.as_deref().map(|p| ("--steering-csv", p)));
+    crate::io::output_file::check_distinct(&inputs, &outputs)?;
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
     if let Some(n) = rec.normalisation {
         eprintln!("{}", n.line());

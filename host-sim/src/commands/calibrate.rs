@@ -198,6 +198,24 @@ pub fn read_manifest(path: &Path) -> Result<Vec<(f64, PathBuf)>> {
     Ok(list)
 }
 
+/// Refuses outputs (`--out`, `--plot`) that would overwrite an input (a recording, `--sweep`,
+/// `--selfcal-in`) or each other, before any work.
+fn check_paths(a: &CalibrateArgs) -> Result<()> {
+    let recordings = match a.selfcal_in {
+        Some(_) => Vec::new(),
+        None => recording_list(a)?,
+    };
+    let mut inputs: Vec<(&str, &Path)> = recordings
+        .iter()
+        .map(|(_, p)| ("recording", p.as_path()))
+        .collect();
+    inputs.extend(a.sweep.as_deref().map(|p| ("--sweep", p)));
+    inputs.extend(a.selfcal_in.as_deref().map(|p| ("--selfcal-in", p)));
+    let mut outputs = vec![("--out", a.out.as_path())];
+    outputs.extend(a.plot.as_deref().map(|p| ("--plot", p)));
+    crate::io::output_file::check_distinct(&inputs, &outputs)
+}
+
 /// The (azimuth, file) list of `--rec` and `--dir`.
 fn recording_list(a: &CalibrateArgs) -> Result<Vec<(f64, PathBuf)>> {
     let mut list = Vec::new();
@@ -311,6 +329,7 @@ pub fn run(a: &CalibrateArgs) -> Result<()> {
             )));
         }
     }
+    check_paths(a)?;
     if let Some(path) = &a.selfcal_in {
         return run_from_estimate(a, path);
     }
@@ -588,7 +607,10 @@ mod tests {
             "--f2",
             "20000",
         ]);
-        assert!(e.contains("f2 = 20000"), "{e}");
+        assert!(
+            e.contains("--f2: 20000 Hz is above half of --rate 16000"),
+            "{e}"
+        );
     }
 
     /// A measured `--table` switches the self-calibration off (it corrects toward the ideal model),

@@ -18,8 +18,9 @@ pub struct EvalArgs {
     /// Print the report as JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Write PNG plots into this folder: track vs truth per scene and accuracy vs tolerance; for a
-    /// multi-talker folder every track in its colour vs each talker's truth per scene.
+    /// Write PNG plots into this folder: track vs truth per scene (NAME.png) and accuracy vs
+    /// tolerance (accuracy.png); for a multi-talker folder every track in its colour vs each
+    /// talker's truth per scene.
     #[arg(long)]
     pub plots: Option<PathBuf>,
     /// Worker threads (default: all cores).
@@ -33,8 +34,20 @@ pub struct EvalArgs {
     pub config: ConfigArgs,
 }
 
+/// File name of the accuracy-vs-tolerance plot in `--plots DIR`.
+const ACCURACY_PLOT: &str = "accuracy.png";
+
 /// Runs `host-sim eval`.
 pub fn run(a: &EvalArgs) -> Result<()> {
+    if let Some(dir) = &a.plots {
+        // Refused before the work, not after the report.
+        if dir.exists() && !dir.is_dir() {
+            return Err(SimError::Usage(format!(
+                "--plots {}: not a folder (the plots go into a folder, made if missing)",
+                dir.display()
+            )));
+        }
+    }
     if crate::evaluation::multi_talker_eval::is_multi_talker_folder(&a.dir) {
         return crate::evaluation::multi_talker_eval::run(a);
     }
@@ -58,9 +71,15 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     }
     if let Some(dir) = &a.plots {
         std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
-        plots::accuracy_plot(&dir.join("accuracy.png"), &report)?;
+        plots::accuracy_plot(&dir.join(ACCURACY_PLOT), &report)?;
         for s in &scenes {
-            plots::track_plot(&dir.join(format!("{}.png", s.entry.name())), s)?;
+            let name = s.entry.name();
+            // A scene named like the summary plot does not replace it.
+            let file = match format!("{name}.png") {
+                f if f == ACCURACY_PLOT => format!("{name}.track.png"),
+                f => f,
+            };
+            plots::track_plot(&dir.join(file), s)?;
         }
     }
     Ok(())

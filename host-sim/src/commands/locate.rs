@@ -86,6 +86,20 @@ pub fn run(a: &LocateArgs) -> Result<()> {
     {
         output_file::check_folder(path)?;
     }
+    let mut inputs = vec![("input", a.input.as_path())];
+    inputs.extend(a.config.input_files());
+    if let Some(p) = &a.selfcal_in {
+        inputs.push(("--selfcal-in", p.as_path()));
+    }
+    let outputs: Vec<(&str, &std::path::Path)> = [
+        ("--csv", csv),
+        ("--tracks", a.tracks.as_deref()),
+        ("--selfcal-out", a.selfcal_out.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, p)| p.map(|p| (flag, p)))
+    .collect();
+    output_file::check_distinct(&inputs, &outputs)?;
     if a.tracks.is_some() {
         check_tracks(config)?;
     }

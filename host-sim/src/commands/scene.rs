@@ -102,6 +102,7 @@ pub fn run(a: &SceneArgs) -> Result<()> {
     if let Some(path) = &a.source {
         crate::io::wav_io::check_mono(path, "--source")?;
     }
+    check_paths(a)?;
     if let Some(n) = a.multi.talkers {
         return crate::simulation::multi_talker_scene::run(a, n);
     }
@@ -157,6 +158,35 @@ pub fn run(a: &SceneArgs) -> Result<()> {
     Ok(())
 }
 
+/// Refuses, before anything is rendered, outputs that would overwrite an input (`--source`,
+/// `--rir`) or each other (`--out`, its truth files, `--manifest`), an output folder that does not
+/// exist and a manifest of the other kind of scene.
+fn check_paths(a: &SceneArgs) -> Result<()> {
+    use crate::simulation::multi_talker_scene::{self as multi, MAX_TALKERS};
+    let inputs: Vec<(&str, &std::path::Path)> = [("--source", &a.source), ("--rir", &a.rir)]
+        .into_iter()
+        .filter_map(|(flag, p)| p.as_deref().map(|p| (flag, p)))
+        .collect();
+    let mut truths = vec![
+        a.out.with_extension("pos.csv"),
+        a.out.with_extension("noise.csv"),
+    ];
+    truths.extend((0..usize::from(MAX_TALKERS)).map(|k| multi::truth_path(&a.out, k)));
+    let mut outputs = vec![("--out", a.out.as_path())];
+    outputs.extend(truths.iter().map(|p| ("truth file", p.as_path())));
+    outputs.extend(a.manifest.as_deref().map(|m| ("--manifest", m)));
+    crate::io::output_file::check_distinct(&inputs, &outputs)?;
+    crate::io::output_file::check_folder(&a.out)?;
+    if let Some(m) = &a.manifest {
+        let header = match a.multi.talkers {
+            Some(_) => multi::MANIFEST_HEADER,
+            None => scene::MANIFEST_HEADER,
+        };
+        crate::io::manifest::check_appendable(m, header)?;
+    }
+    Ok(())
+}
+
 /// The talker's room and the room of the noise sources: a shoebox (--room; the talker --distance
 /// away at 1.2–1.7 m height, each place with its own response), a measured response (--rir,
 /// rotated to the talker's azimuths) or free field.
@@ -200,19 +230,23 @@ pub(crate) fn rooms(
 }
 
 /// Writes the noise sources' truth next to the scene (`NAME.noise.csv`), when there are any.
+/// Header of a scene's noise-source truth (`NAME.noise.csv`).
+const NOISE_TRUTH_HEADER: &str = "kind,azimuth_deg,elevation_deg,distance_m,level_db,on_s,off_s";
+
 pub(crate) fn write_noise_truth(
     out: &std::path::Path,
     sources: &[noise_source::NoiseSource],
 ) -> Result<()> {
+    let path = out.with_extension("noise.csv");
     if sources.is_empty() {
-        return Ok(());
+        // A noise truth of an earlier scene of this name would describe sources this one has not.
+        return crate::io::manifest::remove_stale(&path, NOISE_TRUTH_HEADER);
     }
-    let mut text = String::from("kind,azimuth_deg,elevation_deg,distance_m,level_db,on_s,off_s\n");
+    let mut text = format!("{NOISE_TRUTH_HEADER}\n");
     for s in sources {
         text.push_str(&s.truth_row());
         text.push('\n');
     }
-    let path = out.with_extension("noise.csv");
     crate::io::wav_io::write_atomically(&path, |tmp| {
         std::fs::write(tmp, &text).map_err(|e| SimError::io(tmp, e))
     })

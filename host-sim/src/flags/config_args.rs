@@ -315,6 +315,19 @@ pub struct ConfigArgs {
 }
 
 impl ConfigArgs {
+    /// The files these flags read (`--config`, `--table`), for the check that no output overwrites
+    /// them ([`crate::io::output_file::check_distinct`]).
+    pub fn input_files(&self) -> Vec<(&'static str, &std::path::Path)> {
+        let mut files = Vec::new();
+        if let Some(p) = &self.config {
+            files.push(("--config", p.as_path()));
+        }
+        if let Some(p) = &self.table {
+            files.push(("--table", p.as_path()));
+        }
+        files
+    }
+
     /// The preset's kernel `preset` with `--kernel` and `--kernel-scale` applied.
     fn kernel(&self, preset: CurveKernel) -> Result<CurveKernel> {
         let scale = self

@@ -115,11 +115,68 @@ pub fn read(dir: &Path) -> Result<Vec<Entry>> {
 }
 
 /// The path a manifest in `manifest`'s folder names `wav` by: relative to that folder when `wav`
-/// lies below it, else `wav` as given.
+/// lies below it, else `wav`'s absolute path (the manifest's reader joins a row's file to its
+/// folder, which leaves an absolute path as it is).
 #[must_use]
-pub fn scene_path<'a>(manifest: &Path, wav: &'a Path) -> &'a Path {
-    let dir = manifest.parent().unwrap_or(Path::new("."));
-    wav.strip_prefix(dir).unwrap_or(wav)
+pub fn scene_path(manifest: &Path, wav: &Path) -> std::path::PathBuf {
+    let dir = match manifest.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let (Ok(dir), Ok(wav_abs)) = (std::path::absolute(dir), std::path::absolute(wav)) else {
+        return wav.to_path_buf();
+    };
+    let normal = |p: &Path| -> std::path::PathBuf {
+        p.components()
+            .filter(|c| !matches!(c, std::path::Component::CurDir))
+            .collect()
+    };
+    match normal(&wav_abs).strip_prefix(normal(&dir)) {
+        Ok(rel) => rel.to_path_buf(),
+        Err(_) => wav_abs,
+    }
+}
+
+/// Removes `path` when it is a regular file that starts with the line `header`: a truth file an
+/// earlier scene of the same name left, which the new scene does not replace (fewer talkers, no
+/// noise source). Anything else at `path` is left alone.
+pub fn remove_stale(path: &Path, header: &str) -> Result<()> {
+    let is_file = std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file());
+    if !is_file {
+        return Ok(());
+    }
+    let ours = std::fs::read_to_string(path)
+        .ok()
+        .is_some_and(|t| t.lines().next().map(str::trim) == Some(header));
+    match ours {
+        true => std::fs::remove_file(path).map_err(|e| SimError::io(path, e)),
+        false => Ok(()),
+    }
+}
+
+/// Checks, before a scene is rendered, that `manifest` can take its row: the folder exists, and a
+/// manifest that exists already starts with `header` (single-talker and multi-talker scenes keep
+/// manifests of their own: `host-sim eval` reads one kind per folder).
+pub fn check_appendable(manifest: &Path, header: &str) -> Result<()> {
+    crate::io::output_file::check_folder(manifest)?;
+    if !manifest.exists() {
+        return Ok(());
+    }
+    let text = crate::io::text_file::read(manifest)?;
+    let first = text.lines().next().map(str::trim).unwrap_or_default();
+    if first == header {
+        return Ok(());
+    }
+    let kind = |h: &str| match h {
+        "file,set,talkers,note" => "multi-talker",
+        _ => "single-talker",
+    };
+    Err(SimError::Usage(format!(
+        "--manifest {}: its header is `{first}`, not the {} scenes' `{header}`; give the scene a \
+         manifest of its own (in another folder)",
+        manifest.display(),
+        kind(header)
+    )))
 }
 
 /// Appends the line `row` to the manifest file `manifest`, creating it with the line `header`

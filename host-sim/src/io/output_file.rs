@@ -115,6 +115,82 @@ pub fn check_folder(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// What a path leads to, for telling whether two paths are one file: the file's identity (device
+/// and inode, links followed) when it exists, else its absolute path with the folder's links
+/// resolved; `None` for device nodes, FIFOs and sockets (several outputs may go to `/dev/null`).
+#[derive(Debug, PartialEq, Eq)]
+enum FileKey {
+    Existing(u64, u64),
+    New(PathBuf),
+}
+
+fn file_key(path: &Path) -> Option<FileKey> {
+    if path.as_os_str() == "-" || path.starts_with("/dev") || path.starts_with("/proc") {
+        return None;
+    }
+    match std::fs::metadata(path) {
+        Ok(meta) => {
+            if !meta.is_file() {
+                return None;
+            }
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::MetadataExt;
+                Some(FileKey::Existing(meta.dev(), meta.ino()))
+            }
+            #[cfg(not(unix))]
+            {
+                std::fs::canonicalize(path).ok().map(FileKey::New)
+            }
+        }
+        // A new file (or a dangling link: its target is what would be created).
+        Err(_) => {
+            let target = match resolve(path) {
+                Ok(Target::Replace(p)) => p,
+                _ => return None,
+            };
+            let dir = std::fs::canonicalize(folder_of(&target)).ok()?;
+            Some(FileKey::New(dir.join(target.file_name()?)))
+        }
+    }
+}
+
+/// Refuses, before any work, a command whose outputs would overwrite one of its inputs or each
+/// other: `inputs` and `outputs` are (flag, path) pairs, the flag as the user typed it (e.g.
+/// `("--csv", path)`, or `("input", path)` for a positional argument). Paths are compared as the
+/// files they lead to (through links, `./`, other names of the same file); standard input and
+/// output, device nodes and FIFOs are left out.
+pub fn check_distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<()> {
+    let keyed = |list: &[(&str, &Path)]| -> Vec<(String, PathBuf, FileKey)> {
+        list.iter()
+            .filter_map(|(flag, p)| file_key(p).map(|k| ((*flag).to_string(), p.to_path_buf(), k)))
+            .collect()
+    };
+    let (ins, outs) = (keyed(inputs), keyed(outputs));
+    // `--csv out.csv`, or `the input in.wav` for a positional argument.
+    let named = |flag: &str, path: &Path| match flag.starts_with('-') {
+        true => format!("{flag} {}", path.display()),
+        false => format!("the {flag} {}", path.display()),
+    };
+    for (i, (flag, path, key)) in outs.iter().enumerate() {
+        if let Some((in_flag, in_path, _)) = ins.iter().find(|(_, _, k)| k == key) {
+            return Err(SimError::Usage(format!(
+                "{} would overwrite {}: write the output to another file",
+                named(flag, path),
+                named(in_flag, in_path)
+            )));
+        }
+        if let Some((other, other_path, _)) = outs[..i].iter().find(|(_, _, k)| k == key) {
+            return Err(SimError::Usage(format!(
+                "{} and {} are the same file: give each output its own",
+                named(other, other_path),
+                named(flag, path)
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Writes `target` (a regular file or a new path, no link) atomically through a temporary file in
 /// its folder.
 fn replace(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
@@ -246,5 +322,46 @@ mod tests {
             .unwrap()
             .file_type()
             .is_fifo());
+    }
+
+    #[test]
+    fn outputs_may_not_overwrite_inputs_or_each_other() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.wav");
+        std::fs::write(&input, "RIFF").unwrap();
+        let link = dir.path().join("link.csv");
+        symlink("in.wav", &link).unwrap();
+        let other_name = dir.path().join(".").join("in.wav");
+        let new = dir.path().join("out.csv");
+        let ins = [("input", input.as_path())];
+        // The same file by its name, through a link and by another spelling.
+        for out in [&input, &link, &other_name] {
+            let e = check_distinct(&ins, &[("--csv", out)]).unwrap_err();
+            assert!(matches!(e, SimError::Usage(_)), "{e:?}");
+            let e = e.to_string();
+            assert!(
+                e.contains("--csv") && e.contains("would overwrite the input"),
+                "{e}"
+            );
+        }
+        // Two outputs into one file, new or existing.
+        let e = check_distinct(&ins, &[("--tracks", &new), ("--csv", &new)])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("--tracks") && e.contains("--csv") && e.contains("same file"),
+            "{e}"
+        );
+        // Distinct files, devices and stdout pass; nothing was written.
+        let null = Path::new("/dev/null");
+        let dash = Path::new("-");
+        check_distinct(
+            &ins,
+            &[("--csv", &new), ("--tracks", null), ("--selfcal-out", null)],
+        )
+        .unwrap();
+        check_distinct(&[("input", dash)], &[("--csv", dash)]).unwrap();
+        assert_eq!(std::fs::read_to_string(&input).unwrap(), "RIFF");
+        assert!(!new.exists());
     }
 }

@@ -22,6 +22,12 @@ use crate::simulation::scene::{self, Motion, RoomResponse, SceneSpec};
 use crate::simulation::signal::{pink_noise, Rng};
 use std::path::{Path, PathBuf};
 
+/// Most talkers a scene holds (`--talkers`).
+pub const MAX_TALKERS: u8 = 3;
+
+/// Header of a talker's truth file (`NAME.talkerK.csv`).
+const TRUTH_HEADER: &str = "t_s,azimuth_deg,speaking";
+
 /// Header of a multi-talker manifest.
 pub const MANIFEST_HEADER: &str = "file,set,talkers,note";
 
@@ -40,7 +46,7 @@ pub enum Talk {
 pub struct MultiTalkerArgs {
     /// Several talkers (2 or 3): makes a multi-talker scene with one truth file per talker
     /// (NAME.talkerK.csv); --synth is then the length of the conversation.
-    #[arg(long, value_parser = clap::value_parser!(u8).range(2..=3))]
+    #[arg(long, value_parser = clap::value_parser!(u8).range(2..=MAX_TALKERS as i64))]
     pub talkers: Option<u8>,
     /// How the talkers share the time.
     #[arg(long, value_enum, default_value_t = Talk::Turns)]
@@ -236,7 +242,7 @@ fn utterance(source: Option<&[f64]>, rate: u32, len: usize, rng: &mut Rng) -> Ve
 /// Synthesises a multi-talker scene.
 pub fn synthesize(spec: &MultiTalkerSpec) -> Result<MultiTalkerScene> {
     let n = spec.azimuths.len();
-    if !(2..=3).contains(&n) {
+    if !(2..=MAX_TALKERS as usize).contains(&n) {
         return Err(SimError::Usage(format!(
             "--azimuths: 2 or 3 talkers, got {n}"
         )));
@@ -381,23 +387,17 @@ pub fn write(
     for (k, t) in scene.talkers.iter().enumerate() {
         let path = truth_path(out, k);
         write_atomically(&path, |tmp| {
-            let mut s = String::from("t_s,azimuth_deg,speaking\n");
+            let mut s = format!("{TRUTH_HEADER}\n");
             for (t, a, on) in t.truth_rows(duration) {
                 s.push_str(&format!("{t:.4},{a:.2},{}\n", u8::from(on)));
             }
             std::fs::write(tmp, s).map_err(|e| SimError::io(tmp, e))
         })?;
     }
+    for k in scene.talkers.len()..usize::from(MAX_TALKERS) {
+        crate::io::manifest::remove_stale(&truth_path(out, k), TRUTH_HEADER)?;
+    }
     if let Some((manifest, set)) = manifest {
-        if manifest.exists() {
-            let text = crate::io::text_file::read(manifest)?;
-            if text.lines().next().map(str::trim) != Some(MANIFEST_HEADER) {
-                return Err(SimError::Usage(format!(
-                    "--manifest {}: a single-talker manifest; multi-talker scenes need their own folder",
-                    manifest.display()
-                )));
-            }
-        }
         let row = format!(
             "{},{set},{},\"host-sim scene --talkers\"",
             crate::io::manifest::scene_path(manifest, out).display(),

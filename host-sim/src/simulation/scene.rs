@@ -461,6 +461,9 @@ pub fn synthetic_speech(rate: u32, seconds: f64, seed: u64) -> Vec<f64> {
     out
 }
 
+/// Header of a single-talker manifest (the one `host-sim scene --manifest` writes).
+pub const MANIFEST_HEADER: &str = "file,set,score_from_s,score_to_s,note";
+
 /// Writes a scene's WAV and `.pos.csv` (atomically), and optionally appends it to a manifest.
 pub fn write_scene(
     scene: &Scene,
@@ -483,7 +486,7 @@ pub fn write_scene(
             "{},{set},{from:.3},{to:.3},\"host-sim scene\"",
             crate::io::manifest::scene_path(manifest, out).display()
         );
-        crate::io::manifest::append_row(manifest, "file,set,score_from_s,score_to_s,note", &row)?;
+        crate::io::manifest::append_row(manifest, MANIFEST_HEADER, &row)?;
     }
     Ok(())
 }
