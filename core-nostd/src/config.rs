@@ -50,6 +50,7 @@ pub const DEFAULT_NOISE_GATE: NoiseGate = NoiseGate {
     rise_db_per_s: 1.0,
     open_db: 0.5,
     full_db: 2.0,
+    directional_db: 3.0,
 };
 
 /// The product's frame onset weighting of b ([`FrameOnset`]): the settings of

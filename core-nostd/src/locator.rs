@@ -539,7 +539,8 @@ impl<'t> Locator<'t> {
     fn similarity_gates(&mut self, level: &Level) -> (f32, f32) {
         let c = &self.config;
         let gate = if c.noise_gate.enabled {
-            level.gate * self.noise_floor.update(level.power)
+            let directional = self.similarity.background_is_directional();
+            level.gate * self.noise_floor.update(level.power, directional)
         } else {
             level.gate
         };

@@ -22,6 +22,11 @@ pub struct NoiseGate {
     pub open_db: f32,
     /// Frame power above the floor (dB) where the gate is fully open.
     pub full_db: f32,
+    /// Added to both while the stationary background is a directional source's (a fan, a
+    /// projector, a loudspeaker; the background field's measure): a frame that barely stands out
+    /// from such a background carries the source's direction, not merely none, and a tracker
+    /// that follows it leaves the talker in his pauses.
+    pub directional_db: f32,
 }
 
 impl NoiseGate {
@@ -31,9 +36,11 @@ impl NoiseGate {
         rise_db_per_s: 3.0,
         open_db: 1.0,
         full_db: 4.0,
+        directional_db: 0.0,
     };
 
-    /// Whether the settings are usable: finite, a non-negative rise and `open_db < full_db`.
+    /// Whether the settings are usable: finite, a non-negative rise, `open_db < full_db` and a
+    /// directional shift of 0–20 dB.
     #[must_use]
     pub fn is_valid(&self) -> bool {
         self.rise_db_per_s >= 0.0
@@ -41,6 +48,8 @@ impl NoiseGate {
             && self.open_db.is_finite()
             && self.full_db.is_finite()
             && self.open_db < self.full_db
+            && self.directional_db >= 0.0
+            && self.directional_db <= 20.0
     }
 }
 
@@ -51,6 +60,8 @@ pub struct NoiseFloor {
     rise: f32,
     /// From the gate's `open_db` to its `full_db`.
     ramp: PowerRamp,
+    /// 10^(−`directional_db`/10): a power ratio times this meets the ramp `directional_db` higher.
+    directional: f32,
 }
 
 impl NoiseFloor {
@@ -61,6 +72,7 @@ impl NoiseFloor {
             floor: f32::NAN,
             rise: power_ratio_from_db(gate.rise_db_per_s / frames_per_s),
             ramp: PowerRamp::from_db(gate.open_db, gate.full_db),
+            directional: power_ratio_from_db(-gate.directional_db),
         }
     }
 
@@ -71,6 +83,7 @@ impl NoiseFloor {
             floor: f32::NAN,
             rise: 1.0,
             ramp: PowerRamp::UNIT,
+            directional: 1.0,
         }
     }
 
@@ -81,8 +94,9 @@ impl NoiseFloor {
     }
 
     /// Takes a frame's mean-square power and returns its gate factor in [0, 1] (0 for a frame
-    /// without positive finite power, which leaves the floor as it is).
-    pub fn update(&mut self, power: f32) -> f32 {
+    /// without positive finite power, which leaves the floor as it is); `directional`: the
+    /// background is a directional source's ([`NoiseGate::directional_db`]).
+    pub fn update(&mut self, power: f32, directional: bool) -> f32 {
         if !(power > 0.0 && power.is_finite()) {
             return 0.0;
         }
@@ -92,7 +106,8 @@ impl NoiseFloor {
         } else {
             risen
         };
-        self.ramp.at(power / self.floor)
+        let shift = if directional { self.directional } else { 1.0 };
+        self.ramp.at(power / self.floor * shift)
     }
 }
 
@@ -105,6 +120,7 @@ mod tests {
         rise_db_per_s: 3.0,
         open_db: 1.0,
         full_db: 4.0,
+        directional_db: 0.0,
     };
 
     #[test]
@@ -115,22 +131,22 @@ mod tests {
         };
         let mut f = NoiseFloor::new(&still, 50.0);
         assert!(f.floor().is_nan());
-        assert_eq!(f.update(1.0), 0.0);
+        assert_eq!(f.update(1.0, false), 0.0);
         assert_eq!(f.floor(), 1.0);
         // 0.5 dB above the floor: closed; half-way (in power) between 1 and 4 dB: half open; 6 dB:
         // open.
-        assert_eq!(f.update(1.122), 0.0);
+        assert_eq!(f.update(1.122, false), 0.0);
         let mid = 0.5 * (libm::powf(10.0, 0.1) + libm::powf(10.0, 0.4));
-        let g = f.update(mid);
+        let g = f.update(mid, false);
         assert!((g - 0.5).abs() < 1e-5, "{g}");
-        assert_eq!(f.update(4.0), 1.0);
+        assert_eq!(f.update(4.0, false), 1.0);
         assert_eq!(f.floor(), 1.0);
         // The floor drops at once and rises 3 dB per second at most.
         let mut f = NoiseFloor::new(&GATE, 50.0);
-        f.update(0.5);
+        f.update(0.5, false);
         assert_eq!(f.floor(), 0.5);
         for _ in 0..50 {
-            f.update(100.0);
+            f.update(100.0, false);
         }
         let db = 10.0 * libm::log10f(f.floor() / 0.5);
         assert!((db - 3.0).abs() < 0.01, "{db}");
@@ -139,9 +155,9 @@ mod tests {
     #[test]
     fn bad_power_is_closed_and_does_not_move_the_floor() {
         let mut f = NoiseFloor::new(&GATE, 50.0);
-        f.update(2.0);
+        f.update(2.0, false);
         for p in [0.0, -1.0, f32::NAN, f32::INFINITY] {
-            assert_eq!(f.update(p), 0.0);
+            assert_eq!(f.update(p, false), 0.0);
             assert_eq!(f.floor(), 2.0);
         }
         assert!(GATE.is_valid());
@@ -150,5 +166,41 @@ mod tests {
             ..GATE
         }
         .is_valid());
+        for bad in [-1.0, 21.0, f32::NAN] {
+            assert!(!NoiseGate {
+                directional_db: bad,
+                ..GATE
+            }
+            .is_valid());
+        }
+    }
+
+    /// Beside a directional source the gate opens `directional_db` higher: a frame 4 dB above the
+    /// floor, open before, is closed; one more than 4 + 4 dB above is open.
+    #[test]
+    fn a_directional_background_opens_the_gate_higher() {
+        let g = NoiseGate {
+            rise_db_per_s: 0.0,
+            directional_db: 4.0,
+            ..GATE
+        };
+        let mut f = NoiseFloor::new(&g, 50.0);
+        f.update(1.0, true);
+        let db = |d: f32| libm::powf(10.0, d / 10.0);
+        assert_eq!(f.update(db(4.0), false), 1.0);
+        assert_eq!(f.update(db(4.0), true), 0.0);
+        assert_eq!(f.update(db(8.5), true), 1.0);
+        let mid = 0.5 * (db(5.0) + db(8.0));
+        assert!((f.update(mid, true) - 0.5).abs() < 1e-5);
+        // Off (0 dB): the same gate either way.
+        let mut same = NoiseFloor::new(
+            &NoiseGate {
+                directional_db: 0.0,
+                ..g
+            },
+            50.0,
+        );
+        same.update(1.0, false);
+        assert_eq!(same.update(db(2.5), true), same.update(db(2.5), false));
     }
 }

@@ -4,6 +4,8 @@
 
 /// The power ratio of a level in dB: 10^(dB/10).
 #[must_use]
+// Out of line: one copy of `powf` for every caller (each gate and ramp at start-up), not one each.
+#[inline(never)]
 pub fn power_ratio_from_db(db: f32) -> f32 {
     libm::powf(10.0, db / 10.0)
 }

@@ -156,6 +156,8 @@ pub struct BackgroundFieldState {
     pole: f32,
     /// Whether each band's background is directional enough for its excess to be taken off.
     subtracting: [bool; BG_BANDS],
+    /// Whether each band's background is a source's ([`BackgroundFieldState::is_directional`]).
+    directional: [bool; BG_BANDS],
     /// Each bin's stationary excess E[Re(X_c·X_0*)] − ½·E|X_0|² over background frames, as
     /// bfloat16 (the upper half of the f32's bits: 8 significant bits are plenty for a running
     /// mean of ten noisy values, and half the RAM).
@@ -175,6 +177,7 @@ impl BackgroundFieldState {
             means: Self::idle_means(),
             pole: 1.0,
             subtracting: [false; BG_BANDS],
+            directional: [false; BG_BANDS],
             excess: [[0; CARDIOIDS]; EXCESS_BINS],
             excess_peaks: [0; EXCESS_BINS],
         }
@@ -195,6 +198,7 @@ impl BackgroundFieldState {
         self.frame = [FrameSums::ZERO; BG_BANDS];
         self.means = Self::idle_means();
         self.subtracting = [false; BG_BANDS];
+        self.directional = [false; BG_BANDS];
         self.excess.fill([0; CARDIOIDS]);
         self.excess_peaks.fill(0);
         self.settings = settings;
@@ -270,6 +274,16 @@ impl BackgroundFieldState {
         self.subtracting[self.bands.band_of_bin(k)].then(|| e.map(from_bf16))
     }
 
+    /// Whether some band's background is directional: its mean active ratios (with 8 or more
+    /// background frames behind them) have a directivity above [`DIRECTIONAL_MIN`], a stationary
+    /// source above the diffuse noise (a band the noise-field report shows as a source). The
+    /// noise-floor gate then opens higher above the floor (`NoiseGate::directional_db` of
+    /// `cma-analysis`).
+    #[must_use]
+    pub fn is_directional(&self) -> bool {
+        self.directional.iter().any(|g| *g)
+    }
+
     /// Ends a frame: each background band's ratios join its running means.
     pub fn end_frame(&mut self) {
         let cap = self.settings.memory_frames;
@@ -293,9 +307,15 @@ impl BackgroundFieldState {
                 m.active[c] += g * (active[c] - m.active[c]);
             }
         }
-        for (on, m) in self.subtracting.iter_mut().zip(&self.means) {
-            *on = m.n >= EXCESS_MIN_FRAMES
-                && background_direction(&m.active).1 > self.settings.excess_directivity;
+        for ((on, dir), m) in self
+            .subtracting
+            .iter_mut()
+            .zip(&mut self.directional)
+            .zip(&self.means)
+        {
+            let d = background_direction(&m.active).1;
+            *on = m.n >= EXCESS_MIN_FRAMES && d > self.settings.excess_directivity;
+            *dir = *on && d > DIRECTIONAL_MIN;
         }
     }
 }
@@ -510,10 +530,13 @@ mod tests {
             }
         }
         assert_eq!(s.excess(EXCESS_BINS), None);
+        // A plane wave's background is a source's: the noise gate opens higher.
+        assert!(s.is_directional());
         // The gate: a background no more directional than the setting is left alone.
         s.settings.excess_directivity = 1.0;
         s.end_frame();
         assert_eq!(s.excess(bins[0]), None);
+        assert!(!s.is_directional());
     }
 
     /// A bin's first background peaks average equally (its excess is their mean from the first

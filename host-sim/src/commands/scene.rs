@@ -53,7 +53,7 @@ pub struct SceneArgs {
     #[arg(long, value_parser = arg_values::talker_distance, default_value_t = 1.5, requires = "room")]
     pub distance: f64,
     /// A directional noise source (repeatable): `KIND[,az=DEG][,el=DEG][,dist=M][,level=DB][,on=S][,off=S]`,
-    /// KIND one of fan, projector, vent, hum, white, babble; level relative to the talker on the
+    /// KIND one of fan, projector, vent, hum, white, babble, tilted; level relative to the talker on the
     /// omni (default −20 dB), rendered through the same room as the talker (--room, --rir or free
     /// field); e.g. `--noise-source fan,az=40,el=20,level=-18,on=40`. Written to NAME.noise.csv.
     #[arg(long = "noise-source", allow_hyphen_values = true)]

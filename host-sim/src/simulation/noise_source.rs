@@ -28,17 +28,22 @@ pub enum NoiseKind {
     White,
     /// A distant group talking: six speech-like voices from one direction.
     Babble,
+    /// An air handler or a server rack: broadband noise falling 3 dB an octave from 100 Hz up
+    /// (as loud in each octave of 1–4 kHz, where speech is weak, as in each below), with mains-hum
+    /// harmonics of 100 or 120 Hz.
+    Tilted,
 }
 
 impl NoiseKind {
     /// Every kind, in the order of [`NoiseKind::name`].
-    pub const ALL: [Self; 6] = [
+    pub const ALL: [Self; 7] = [
         Self::Fan,
         Self::Projector,
         Self::Vent,
         Self::Hum,
         Self::White,
         Self::Babble,
+        Self::Tilted,
     ];
 
     /// The name used on the command line and in truth files.
@@ -51,6 +56,7 @@ impl NoiseKind {
             Self::Hum => "hum",
             Self::White => "white",
             Self::Babble => "babble",
+            Self::Tilted => "tilted",
         }
     }
 
@@ -111,6 +117,16 @@ impl NoiseKind {
                 h
             }
             Self::White => (0..n).map(|_| rng.gaussian()).collect(),
+            Self::Tilted => {
+                // Pink noise above 100 Hz (a one-pole high-pass): its power is in the audible band,
+                // not in the few-hertz swell of a pink generator.
+                let pink = pink_noise(&mut rng, n);
+                let low = lowpass(&pink, rate, 100.0);
+                let body: Vec<f64> = pink.iter().zip(&low).map(|(p, l)| p - l).collect();
+                let mains = if rng.uniform() < 0.5 { 100.0 } else { 120.0 };
+                let hum = tones(&mut rng, mains, 10, 0.7);
+                mix(&[(&body, 1.0), (&hum, 0.5)])
+            }
             Self::Babble => {
                 let secs = n as f64 / fs + 0.1;
                 let voices: Vec<Vec<f64>> = (0..6)
