@@ -477,3 +477,36 @@ fn a_re_rendered_scene_leaves_no_stale_truth() {
     assert!(run(&args).status.success());
     assert_eq!(std::fs::read_to_string(&noise).unwrap(), "mine\n");
 }
+
+/// A scene's capsule and motion flags out of range are refused naming the flag and its value.
+#[test]
+fn scene_array_and_motion_errors_name_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("s.wav");
+    let o_ = out.to_str().unwrap();
+    for (args, says) in [
+        (
+            vec!["--capsule-beta", "2,0.5,0.5"],
+            "--capsule-beta: expected",
+        ),
+        (
+            vec!["--capsule-gain-db=1,30,0"],
+            "--capsule-gain-db: expected",
+        ),
+        (vec!["--beta-drift", "5"], "--beta-drift: expected"),
+        (vec!["--drift-corner", "0"], "--drift-corner: expected"),
+        (
+            vec!["--talkers", "2", "--move-first", "nan"],
+            "--move-first",
+        ),
+    ] {
+        let o = run(&[&["scene", "--synth", "1", "--out", o_][..], &args[..]].concat());
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(
+            e.contains(says) && !e.contains("ArrayModel"),
+            "{args:?}: {e}"
+        );
+        assert!(!out.exists(), "{args:?}");
+    }
+}

@@ -613,8 +613,8 @@ mod tests {
         );
     }
 
-    /// A measured `--table` switches the self-calibration off (it corrects toward the ideal model),
-    /// unless `--selfcal on` asks for it.
+    /// A measured `--table` switches the self-calibration off (it corrects toward the ideal model);
+    /// `--selfcal on` keeps it in the configuration, which the localizer then refuses.
     #[test]
     fn a_measured_table_turns_the_self_calibration_off() {
         use clap::Parser;

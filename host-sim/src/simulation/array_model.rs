@@ -91,21 +91,46 @@ impl ArrayModel {
         })
     }
 
-    /// Checks ranges: |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0, self-noise within ±60 dB.
+    /// Checks ranges: |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0, self-noise within ±60 dB;
+    /// the error names the `host-sim scene` flag and its value.
     pub fn validate(&self) -> Result<()> {
-        let ok = self.gains_db.iter().all(|g| g.abs() <= 20.0)
-            && self.betas.iter().all(|b| (0.0..=1.0).contains(b))
-            && self.beta_drift.abs() <= 1.0
-            && self.drift_corner_hz > 0.0
-            && self.drift_corner_hz.is_finite()
-            && self.self_noise_db.is_none_or(|d| d.abs() <= 60.0);
-        if ok {
-            Ok(())
+        let list = |v: &[f64]| {
+            v.iter()
+                .map(|x| x.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        };
+        let bad = if !self.gains_db.iter().all(|g| g.abs() <= 20.0) {
+            Some((
+                "--capsule-gain-db",
+                list(&self.gains_db),
+                "each within ±20 dB",
+            ))
+        } else if !self.betas.iter().all(|b| (0.0..=1.0).contains(b)) {
+            Some((
+                "--capsule-beta",
+                list(&self.betas),
+                "each 0 (omni) to 1 (figure-8)",
+            ))
+        } else if !(self.beta_drift.abs() <= 1.0) {
+            Some(("--beta-drift", self.beta_drift.to_string(), "within ±1"))
+        } else if !(self.drift_corner_hz > 0.0 && self.drift_corner_hz.is_finite()) {
+            Some((
+                "--drift-corner",
+                self.drift_corner_hz.to_string(),
+                "a frequency above 0 Hz",
+            ))
+        } else if !self.self_noise_db.is_none_or(|d| d.abs() <= 60.0) {
+            let d = self.self_noise_db.unwrap_or_default();
+            Some(("--self-noise", d.to_string(), "within ±60 dB"))
         } else {
-            Err(SimError::Usage(format!(
-                "array model out of range (need |gain| ≤ 20 dB, 0 ≤ β ≤ 1, |Δβ| ≤ 1, corner > 0, \
-                 |self-noise| ≤ 60 dB): {self:?}"
-            )))
+            None
+        };
+        match bad {
+            None => Ok(()),
+            Some((flag, value, need)) => Err(SimError::Usage(format!(
+                "{flag}: expected {need}, got {value}"
+            ))),
         }
     }
 

@@ -22,6 +22,16 @@ use crate::simulation::scene::{self, Motion, RoomResponse, SceneSpec};
 use crate::simulation::signal::{pink_noise, Rng};
 use std::path::{Path, PathBuf};
 
+/// A finite angular speed (`--move-first`), degrees per second.
+fn finite_speed(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!(
+            "expected a finite speed in degrees per second, got `{s}`"
+        )),
+    }
+}
+
 /// Most talkers a scene holds (`--talkers`).
 pub const MAX_TALKERS: u8 = 3;
 
@@ -55,7 +65,7 @@ pub struct MultiTalkerArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub azimuths: Option<String>,
     /// The first talker circles at this angular speed, degrees per second.
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = finite_speed)]
     pub move_first: Option<f64>,
     /// Per-talker first-order room response (AmbiX W, Y, Z, X; SN3D), once per talker in order;
     /// each is rotated to its talker's azimuth (--rir-n3d, --rir-length apply).
