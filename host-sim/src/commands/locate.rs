@@ -80,17 +80,6 @@ pub fn run(a: &LocateArgs) -> Result<()> {
     let table = a.config.table(measured.as_ref())?;
     // Everything that can be refused is, before any output.
     let csv = a.csv.as_deref().filter(|p| !is_dash(p));
-    for path in [csv, a.tracks.as_deref(), a.selfcal_out.as_deref()]
-        .into_iter()
-        .flatten()
-    {
-        output_file::check_folder(path)?;
-    }
-    let mut inputs = vec![("input", a.input.as_path())];
-    inputs.extend(a.config.input_files());
-    if let Some(p) = &a.selfcal_in {
-        inputs.push(("--selfcal-in", p.as_path()));
-    }
     let outputs: Vec<(&str, &std::path::Path)> = [
         ("--csv", csv),
         ("--tracks", a.tracks.as_deref()),
@@ -99,6 +88,14 @@ pub fn run(a: &LocateArgs) -> Result<()> {
     .into_iter()
     .filter_map(|(flag, p)| p.map(|p| (flag, p)))
     .collect();
+    for (_, path) in &outputs {
+        output_file::check_folder(path)?;
+    }
+    let mut inputs = vec![("input", a.input.as_path())];
+    inputs.extend(a.config.input_files());
+    if let Some(p) = &a.selfcal_in {
+        inputs.push(("--selfcal-in", p.as_path()));
+    }
     output_file::check_distinct(&inputs, &outputs)?;
     if a.tracks.is_some() {
         check_tracks(config)?;

@@ -178,11 +178,11 @@ fn check_paths(a: &SceneArgs) -> Result<()> {
     crate::io::output_file::check_distinct(&inputs, &outputs)?;
     crate::io::output_file::check_folder(&a.out)?;
     if let Some(m) = &a.manifest {
-        let header = match a.multi.talkers {
-            Some(_) => multi::MANIFEST_HEADER,
-            None => scene::MANIFEST_HEADER,
+        let (header, kind) = match a.multi.talkers {
+            Some(_) => (multi::MANIFEST_HEADER, "multi-talker"),
+            None => (scene::MANIFEST_HEADER, "single-talker"),
         };
-        crate::io::manifest::check_appendable(m, header)?;
+        crate::io::manifest::check_appendable(m, header, kind)?;
     }
     Ok(())
 }
@@ -229,10 +229,11 @@ pub(crate) fn rooms(
     Ok((room.map(scene::TalkerRoom::Rotated), source_room))
 }
 
-/// Writes the noise sources' truth next to the scene (`NAME.noise.csv`), when there are any.
 /// Header of a scene's noise-source truth (`NAME.noise.csv`).
 const NOISE_TRUTH_HEADER: &str = "kind,azimuth_deg,elevation_deg,distance_m,level_db,on_s,off_s";
 
+/// Writes the noise sources' truth next to the scene (`NAME.noise.csv`), when there are any;
+/// without sources, removes one an earlier scene of the same name left.
 pub(crate) fn write_noise_truth(
     out: &std::path::Path,
     sources: &[noise_source::NoiseSource],

@@ -119,10 +119,7 @@ pub fn read(dir: &Path) -> Result<Vec<Entry>> {
 /// folder, which leaves an absolute path as it is).
 #[must_use]
 pub fn scene_path(manifest: &Path, wav: &Path) -> std::path::PathBuf {
-    let dir = match manifest.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = crate::io::output_file::folder_of(manifest);
     let (Ok(dir), Ok(wav_abs)) = (std::path::absolute(dir), std::path::absolute(wav)) else {
         return wav.to_path_buf();
     };
@@ -155,9 +152,9 @@ pub fn remove_stale(path: &Path, header: &str) -> Result<()> {
 }
 
 /// Checks, before a scene is rendered, that `manifest` can take its row: the folder exists, and a
-/// manifest that exists already starts with `header` (single-talker and multi-talker scenes keep
-/// manifests of their own: `host-sim eval` reads one kind per folder).
-pub fn check_appendable(manifest: &Path, header: &str) -> Result<()> {
+/// manifest that exists already starts with `header`, the one `kind` scenes (single-talker or
+/// multi-talker) write: they keep manifests of their own, `host-sim eval` reads one kind per folder.
+pub fn check_appendable(manifest: &Path, header: &str, kind: &str) -> Result<()> {
     crate::io::output_file::check_folder(manifest)?;
     if !manifest.exists() {
         return Ok(());
@@ -167,15 +164,10 @@ pub fn check_appendable(manifest: &Path, header: &str) -> Result<()> {
     if first == header {
         return Ok(());
     }
-    let kind = |h: &str| match h {
-        "file,set,talkers,note" => "multi-talker",
-        _ => "single-talker",
-    };
     Err(SimError::Usage(format!(
-        "--manifest {}: its header is `{first}`, not the {} scenes' `{header}`; give the scene a \
+        "--manifest {}: its header is `{first}`, not the {kind} scenes' `{header}`; give the scene a \
          manifest of its own (in another folder)",
-        manifest.display(),
-        kind(header)
+        manifest.display()
     )))
 }
 
