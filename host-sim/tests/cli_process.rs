@@ -510,3 +510,59 @@ fn scene_array_and_motion_errors_name_the_flag() {
         assert!(!out.exists(), "{args:?}");
     }
 }
+
+/// Settings the core would run with and mishandle (a threshold on b above 1, an L_p power of 0)
+/// are refused before any work: from a file naming the key, its value and the range; from a flag
+/// as a usage error naming the flag.
+#[test]
+fn settings_out_of_range_are_refused_with_key_value_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, says) in [
+        (
+            "measure = { Lp = 0 }\n",
+            "`measure.Lp`: 0 is out of range; valid: p from 0.25 to 32",
+        ),
+        (
+            "[quality]\nbinary_threshold = 2\n",
+            "`quality.binary_threshold`: 2 is out of range; valid: at most 1",
+        ),
+    ] {
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, text).unwrap();
+        let o = run(&[
+            "locate",
+            "/nonexistent.wav",
+            "--config",
+            file.to_str().unwrap(),
+        ]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{text}: {e}");
+        assert!(e.contains("bad.toml") && e.contains(says), "{text}: {e}");
+        assert!(
+            !e.contains("nonexistent"),
+            "checked before the input is read: {e}"
+        );
+    }
+    for (flags, says) in [
+        (
+            vec!["--binary-threshold", "2"],
+            "--binary-threshold: 2 is out of range",
+        ),
+        (
+            vec!["--reliability-exponent", "0"],
+            "--reliability-exponent: 0 is out of range",
+        ),
+        (
+            vec!["--measure", "l0"],
+            "--measure: expected euclid, cosine or lP with P from 0.25 to 32",
+        ),
+    ] {
+        let o = run(&[&["locate", "/nonexistent.wav"][..], &flags[..]].concat());
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {e}");
+        assert!(
+            e.starts_with("error: ") && e.contains(says),
+            "{flags:?}: {e}"
+        );
+    }
+}

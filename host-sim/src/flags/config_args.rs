@@ -155,7 +155,7 @@ pub struct ConfigArgs {
     /// Analysis band upper edge, Hz.
     #[arg(long, value_parser = crate::flags::arg_values::positive, help_heading = "Analysis: peaks and features")]
     pub band_hi: Option<f32>,
-    /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
+    /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm with P from 0.25 to 32, e.g. `l1`).
     #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub measure: Option<String>,
     /// The per-peak term of the similarity curve.
@@ -560,7 +560,15 @@ fn check_flags(before_flags: &LocatorConfig, config: &LocatorConfig) -> Result<(
     let flags: Vec<String> = e
         .keys()
         .iter()
-        .filter_map(|key| FLAG_KEYS.iter().find(|(_, k)| k == key))
+        .filter_map(|key| {
+            // The flag of the key itself, else of the setting it is part of (`measure` for
+            // `measure.Lp`).
+            FLAG_KEYS.iter().find(|(_, k)| k == key).or_else(|| {
+                FLAG_KEYS
+                    .iter()
+                    .find(|(_, k)| key.strip_prefix(k).is_some_and(|r| r.starts_with('.')))
+            })
+        })
         .map(|(id, _)| format!("--{}", id.replace('_', "-")))
         .collect();
     if flags.is_empty() {
@@ -574,17 +582,18 @@ fn check_flags(before_flags: &LocatorConfig, config: &LocatorConfig) -> Result<(
 }
 
 fn parse_measure(s: &str) -> Result<SimilarityMeasure> {
+    let (lo, hi) = cma_config::LP_RANGE;
     match s {
         "euclid" | "euclidean" | "l2" => Ok(SimilarityMeasure::Euclidean),
         "cosine" | "cos" => Ok(SimilarityMeasure::Cosine),
         other => other
             .strip_prefix('l')
             .and_then(|p| p.parse::<f32>().ok())
-            .filter(|p| *p > 0.0 && p.is_finite())
+            .filter(|p| (lo..=hi).contains(&f64::from(*p)))
             .map(SimilarityMeasure::Lp)
             .ok_or_else(|| {
                 SimError::Usage(format!(
-                    "--measure: expected euclid, cosine or lP with P > 0, got `{other}`"
+                    "--measure: expected euclid, cosine or lP with P from {lo} to {hi}, got `{other}`"
                 ))
             }),
     }
