@@ -566,3 +566,117 @@ fn settings_out_of_range_are_refused_with_key_value_and_range() {
         );
     }
 }
+
+/// Flags that contradict each other, or set a stage another flag switches off, are refused as a
+/// usage error naming both before any work (no output, not even a missing input is noticed).
+#[test]
+fn conflicting_flags_are_refused_naming_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().join("t.csv");
+    let t = t.to_str().unwrap();
+    let missing = "/nonexistent/in.wav";
+    for (args, names) in [
+        (
+            vec!["locate", missing, "--tracks", t, "--multi-talker", "off"],
+            vec!["--tracks", "--multi-talker off"],
+        ),
+        (
+            vec!["locate", missing, "--table", "x.cmat", "--grid", "15"],
+            vec!["--table", "--grid"],
+        ),
+        (
+            vec!["eval", missing, "--grid", "5", "--table", "x.cmat"],
+            vec!["--table", "--grid"],
+        ),
+        (
+            vec!["beam", missing, "--out", t, "--table", "x.cmat"],
+            vec!["--table", "beam"],
+        ),
+        (
+            vec!["locate", missing, "--no-reliability", "--vmax", "0.01"],
+            vec!["--no-reliability", "--vmax"],
+        ),
+        (
+            vec![
+                "locate",
+                missing,
+                "--tracker",
+                "onepole",
+                "--sharpness",
+                "40",
+            ],
+            vec!["--sharpness", "--tracker onepole"],
+        ),
+        (
+            vec!["eval", missing, "--preset", "thesis", "--jump-prob", "0.1"],
+            vec!["--jump-prob", "one-pole"],
+        ),
+        (
+            vec!["locate", missing, "--noise-gate", "off", "--gate-open", "1"],
+            vec!["--gate-open", "--noise-gate off"],
+        ),
+        (
+            vec![
+                "beam",
+                missing,
+                "--out",
+                t,
+                "--frame-onset",
+                "off",
+                "--frame-onset-low",
+                "1",
+            ],
+            vec!["--frame-onset-low", "--frame-onset off"],
+        ),
+        (
+            vec![
+                "locate",
+                missing,
+                "--selfcal",
+                "off",
+                "--selfcal-adapt",
+                "on",
+            ],
+            vec!["--selfcal-adapt", "--selfcal off"],
+        ),
+        (
+            vec![
+                "locate",
+                missing,
+                "--preset",
+                "thesis",
+                "--selfcal-in",
+                "x.selfcal",
+            ],
+            vec!["--selfcal-in", "self-calibration is off"],
+        ),
+        (
+            vec!["locate", missing, "--fdiv-std-binary"],
+            vec!["--fdiv-std-binary", "--fdiv-std"],
+        ),
+    ] {
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(o.stdout.is_empty(), "{args:?}");
+        assert!(
+            e.starts_with("error: ") && !e.contains("nonexistent"),
+            "{args:?}: {e}"
+        );
+        for name in names {
+            assert!(e.contains(name), "{args:?} should name {name}: {e}");
+        }
+        assert!(!std::path::Path::new(t).exists(), "{args:?}");
+    }
+    // An eval of a multi-talker folder runs the tracks: --multi-talker off is refused there.
+    let multi = dir.path().join("m");
+    std::fs::create_dir(&multi).unwrap();
+    std::fs::write(multi.join("manifest.csv"), "file,set,talkers,note\n").unwrap();
+    let o = run(&["eval", multi.to_str().unwrap(), "--multi-talker", "off"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("--multi-talker off") && e.contains("multi-talker folder"),
+        "{e}"
+    );
+}

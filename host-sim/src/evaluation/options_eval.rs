@@ -127,6 +127,13 @@ impl OptionArgs {
         } else if self.fdiv_std_binary {
             c.intensity.fdiv_spread.binary = true;
         }
+        if self.fdiv_std_binary && !c.intensity.fdiv_spread.enabled() {
+            return Err(SimError::Usage(
+                "--fdiv-std-binary needs the circular-std reliability on: give --fdiv-std S_MAX \
+                 with S_MAX > 0 (or fdiv_spread.max_std_deg in the file)"
+                    .into(),
+            ));
+        }
         Ok(())
     }
 }
