@@ -680,3 +680,50 @@ fn conflicting_flags_are_refused_naming_both() {
         "{e}"
     );
 }
+
+/// `options-eval --base` is one argument split as a shell splits it, checked before the table's
+/// first line; `distance-report --help` describes its own flags (not the localizer's file keys).
+#[test]
+fn options_eval_base_and_distance_report_help() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for (base, says) in [
+        (
+            "--frobnicate",
+            "--base `--frobnicate`: unexpected argument '--frobnicate'",
+        ),
+        ("--config 'my room.toml", "--base: the quote ' in"),
+        ("--config 'no such room.toml'", "no such room.toml"),
+        ("--json", "--base `--json`: unexpected argument"),
+    ] {
+        let o = run(&["options-eval", d, "--base", base]);
+        let e = stderr(&o);
+        assert_ne!(o.status.code(), Some(0), "{base}: {e}");
+        assert!(
+            o.stdout.is_empty(),
+            "{base}: nothing printed before the error"
+        );
+        assert!(e.contains(says), "{base}: {e}");
+        assert!(e.matches("For more information").count() <= 1, "{e}");
+    }
+    let help = String::from_utf8(run(&["options-eval", "--help"]).stdout).unwrap();
+    assert!(help.contains("'my room.toml'"), "{help}");
+    let help = String::from_utf8(run(&["distance-report", "--help"]).stdout).unwrap();
+    assert!(
+        !help.contains("[file:") && !help.contains("band_lo_hz"),
+        "{help}"
+    );
+    assert!(
+        help.contains("[default: 80]") && help.contains("Markdown table"),
+        "{help}"
+    );
+    for args in [
+        vec!["--band-lo", "600"],
+        vec!["--band-hi", "9000"],
+        vec!["--peaks", "0"],
+    ] {
+        let o = run(&[&["distance-report", d][..], &args[..]].concat());
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(args[0]), "{args:?}: {}", stderr(&o));
+    }
+}

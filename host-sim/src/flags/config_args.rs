@@ -765,8 +765,12 @@ pub fn flag_notes() -> Vec<(&'static str, String)> {
 }
 
 /// Appends to the help of every configuration flag of `cmd` its note from `notes`
-/// ([`flag_notes`]).
+/// ([`flag_notes`]); a command without the configuration flags (no `--preset`, e.g.
+/// `distance-report`, whose `--peaks` is its own) is left as it is.
 pub fn annotate(mut cmd: clap::Command, notes: &[(&'static str, String)]) -> clap::Command {
+    if !cmd.get_arguments().any(|a| a.get_id() == "preset") {
+        return cmd;
+    }
     // Every argument is touched in its order, as `mut_arg` moves the argument to the end: the
     // help keeps the declaration order (and with it the order of the headings).
     let ids: Vec<clap::Id> = cmd.get_arguments().map(|a| a.get_id().clone()).collect();
