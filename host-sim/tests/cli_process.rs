@@ -727,3 +727,34 @@ fn options_eval_base_and_distance_report_help() {
         assert!(stderr(&o).contains(args[0]), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// An input that cannot be read and an output that cannot be written are named with the operation
+/// that failed, by the path the user gave (not a temporary file's).
+#[test]
+fn io_errors_name_the_path_and_the_operation() {
+    let dir = tempfile::tempdir().unwrap();
+    let w = scene(dir.path(), "s.wav", "1");
+    for (args, says) in [
+        (
+            vec!["locate", "/nonexistent/x.wav"],
+            "host-sim: error: /nonexistent/x.wav: cannot read: no such file",
+        ),
+        (
+            vec!["locate", &w, "--config", "/nonexistent/room.toml"],
+            "host-sim: error: /nonexistent/room.toml: cannot read: ",
+        ),
+        (
+            vec!["locate", &w, "-q", "--csv", "/dev/full"],
+            "host-sim: error: /dev/full: cannot write: ",
+        ),
+    ] {
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(e.starts_with(says), "{args:?}: {e}");
+        assert!(
+            !e.contains(".partial") && !e.contains("/tmp/."),
+            "{args:?}: {e}"
+        );
+    }
+}

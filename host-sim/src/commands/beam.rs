@@ -106,7 +106,7 @@ pub fn run(a: &BeamArgs) -> Result<()> {
         for (t, az) in &out.steering {
             s.push_str(&format!("{t:.4},{az:.2}\n"));
         }
-        std::fs::write(p, s).map_err(|e| SimError::io(p, e))?;
+        std::fs::write(p, s).map_err(|e| SimError::writing(p, e))?;
     }
     Ok(())
 }

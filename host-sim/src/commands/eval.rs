@@ -77,7 +77,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         stdout_text::print_text(&eval::format_table(&report))?;
     }
     if let Some(dir) = &a.plots {
-        std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
+        std::fs::create_dir_all(dir).map_err(|e| SimError::doing("create the folder", dir, e))?;
         plots::accuracy_plot(&dir.join(ACCURACY_PLOT), &report)?;
         for s in &scenes {
             let name = s.entry.name();

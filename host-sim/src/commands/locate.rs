@@ -195,7 +195,7 @@ pub fn run(a: &LocateArgs) -> Result<()> {
             write(&mut std::io::BufWriter::new(f)).map_err(|e| SimError::io(tmp, e))
         })?,
         None => write(&mut std::io::BufWriter::new(std::io::stdout().lock()))
-            .map_err(|e| SimError::io(stdout_text::STDOUT, e))?,
+            .map_err(|e| SimError::writing(stdout_text::STDOUT, e))?,
     }
     if let Some(path) = &a.tracks {
         multi_talker_eval::write_tracks_file(input, a.input_layout, config, table, path)?;
