@@ -11,11 +11,14 @@ pub enum SimError {
     /// A flag value that parsed but makes no sense (a usage error, like [`SimError::Cli`]).
     #[error("{0}")]
     Usage(String),
-    /// A file could not be opened, read or written.
-    #[error("{path}: {source}")]
+    /// A file could not be opened, read or written: `PATH: cannot read: …` (or `write`, …, the
+    /// operation that failed, where it is known).
+    #[error("{path}: {}{source}", op.map(|op| format!("cannot {op}: ")).unwrap_or_default())]
     Io {
         /// The file.
         path: PathBuf,
+        /// What was done with it (`read`, `write`, `create the folder`), if known.
+        op: Option<&'static str>,
         /// The OS error.
         source: std::io::Error,
     },
@@ -91,6 +94,26 @@ impl SimError {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         SimError::Io {
             path: path.into(),
+            op: None,
+            source,
+        }
+    }
+
+    /// An input that could not be opened or read: `PATH: cannot read: …`.
+    pub fn reading(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::doing("read", path, source)
+    }
+
+    /// An output that could not be created or written: `PATH: cannot write: …`.
+    pub fn writing(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::doing("write", path, source)
+    }
+
+    /// An I/O error of operation `op` (`create the folder`) on `path`: `PATH: cannot OP: …`.
+    pub fn doing(op: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        SimError::Io {
+            path: path.into(),
+            op: Some(op),
             source,
         }
     }

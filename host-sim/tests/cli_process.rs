@@ -510,3 +510,251 @@ fn scene_array_and_motion_errors_name_the_flag() {
         assert!(!out.exists(), "{args:?}");
     }
 }
+
+/// Settings the core would run with and mishandle (a threshold on b above 1, an L_p power of 0)
+/// are refused before any work: from a file naming the key, its value and the range; from a flag
+/// as a usage error naming the flag.
+#[test]
+fn settings_out_of_range_are_refused_with_key_value_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, says) in [
+        (
+            "measure = { Lp = 0 }\n",
+            "`measure.Lp`: 0 is out of range; valid: p from 0.25 to 32",
+        ),
+        (
+            "[quality]\nbinary_threshold = 2\n",
+            "`quality.binary_threshold`: 2 is out of range; valid: at most 1",
+        ),
+    ] {
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, text).unwrap();
+        let o = run(&[
+            "locate",
+            "/nonexistent.wav",
+            "--config",
+            file.to_str().unwrap(),
+        ]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{text}: {e}");
+        assert!(e.contains("bad.toml") && e.contains(says), "{text}: {e}");
+        assert!(
+            !e.contains("nonexistent"),
+            "checked before the input is read: {e}"
+        );
+    }
+    for (flags, says) in [
+        (
+            vec!["--binary-threshold", "2"],
+            "--binary-threshold: 2 is out of range",
+        ),
+        (
+            vec!["--reliability-exponent", "0"],
+            "--reliability-exponent: 0 is out of range",
+        ),
+        (
+            vec!["--measure", "l0"],
+            "--measure: expected euclid, cosine or lP with P from 0.25 to 32",
+        ),
+    ] {
+        let o = run(&[&["locate", "/nonexistent.wav"][..], &flags[..]].concat());
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {e}");
+        assert!(
+            e.starts_with("error: ") && e.contains(says),
+            "{flags:?}: {e}"
+        );
+    }
+}
+
+/// Flags that contradict each other, or set a stage another flag switches off, are refused as a
+/// usage error naming both before any work (no output, not even a missing input is noticed).
+#[test]
+fn conflicting_flags_are_refused_naming_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = dir.path().join("t.csv");
+    let t = t.to_str().unwrap();
+    let missing = "/nonexistent/in.wav";
+    for (args, names) in [
+        (
+            vec!["locate", missing, "--tracks", t, "--multi-talker", "off"],
+            vec!["--tracks", "--multi-talker off"],
+        ),
+        (
+            vec!["locate", missing, "--table", "x.cmat", "--grid", "15"],
+            vec!["--table", "--grid"],
+        ),
+        (
+            vec!["eval", missing, "--grid", "5", "--table", "x.cmat"],
+            vec!["--table", "--grid"],
+        ),
+        (
+            vec!["beam", missing, "--out", t, "--table", "x.cmat"],
+            vec!["--table", "beam"],
+        ),
+        (
+            vec!["locate", missing, "--no-reliability", "--vmax", "0.01"],
+            vec!["--no-reliability", "--vmax"],
+        ),
+        (
+            vec![
+                "locate",
+                missing,
+                "--tracker",
+                "onepole",
+                "--sharpness",
+                "40",
+            ],
+            vec!["--sharpness", "--tracker onepole"],
+        ),
+        (
+            vec!["eval", missing, "--preset", "thesis", "--jump-prob", "0.1"],
+            vec!["--jump-prob", "one-pole"],
+        ),
+        (
+            vec!["locate", missing, "--noise-gate", "off", "--gate-open", "1"],
+            vec!["--gate-open", "--noise-gate off"],
+        ),
+        (
+            vec![
+                "beam",
+                missing,
+                "--out",
+                t,
+                "--frame-onset",
+                "off",
+                "--frame-onset-low",
+                "1",
+            ],
+            vec!["--frame-onset-low", "--frame-onset off"],
+        ),
+        (
+            vec![
+                "locate",
+                missing,
+                "--selfcal",
+                "off",
+                "--selfcal-adapt",
+                "on",
+            ],
+            vec!["--selfcal-adapt", "--selfcal off"],
+        ),
+        (
+            vec![
+                "locate",
+                missing,
+                "--preset",
+                "thesis",
+                "--selfcal-in",
+                "x.selfcal",
+            ],
+            vec!["--selfcal-in", "self-calibration is off"],
+        ),
+        (
+            vec!["locate", missing, "--fdiv-std-binary"],
+            vec!["--fdiv-std-binary", "--fdiv-std"],
+        ),
+    ] {
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(o.stdout.is_empty(), "{args:?}");
+        assert!(
+            e.starts_with("error: ") && !e.contains("nonexistent"),
+            "{args:?}: {e}"
+        );
+        for name in names {
+            assert!(e.contains(name), "{args:?} should name {name}: {e}");
+        }
+        assert!(!std::path::Path::new(t).exists(), "{args:?}");
+    }
+    // An eval of a multi-talker folder runs the tracks: --multi-talker off is refused there.
+    let multi = dir.path().join("m");
+    std::fs::create_dir(&multi).unwrap();
+    std::fs::write(multi.join("manifest.csv"), "file,set,talkers,note\n").unwrap();
+    let o = run(&["eval", multi.to_str().unwrap(), "--multi-talker", "off"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("--multi-talker off") && e.contains("multi-talker folder"),
+        "{e}"
+    );
+}
+
+/// `options-eval --base` is one argument split as a shell splits it, checked before the table's
+/// first line; `distance-report --help` describes its own flags (not the localizer's file keys).
+#[test]
+fn options_eval_base_and_distance_report_help() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for (base, says) in [
+        (
+            "--frobnicate",
+            "--base `--frobnicate`: unexpected argument '--frobnicate'",
+        ),
+        ("--config 'my room.toml", "--base: the quote ' in"),
+        ("--config 'no such room.toml'", "no such room.toml"),
+        ("--json", "--base `--json`: unexpected argument"),
+    ] {
+        let o = run(&["options-eval", d, "--base", base]);
+        let e = stderr(&o);
+        assert_ne!(o.status.code(), Some(0), "{base}: {e}");
+        assert!(
+            o.stdout.is_empty(),
+            "{base}: nothing printed before the error"
+        );
+        assert!(e.contains(says), "{base}: {e}");
+        assert!(e.matches("For more information").count() <= 1, "{e}");
+    }
+    let help = String::from_utf8(run(&["options-eval", "--help"]).stdout).unwrap();
+    assert!(help.contains("'my room.toml'"), "{help}");
+    let help = String::from_utf8(run(&["distance-report", "--help"]).stdout).unwrap();
+    assert!(
+        !help.contains("[file:") && !help.contains("band_lo_hz"),
+        "{help}"
+    );
+    assert!(
+        help.contains("[default: 80]") && help.contains("Markdown table"),
+        "{help}"
+    );
+    for args in [
+        vec!["--band-lo", "600"],
+        vec!["--band-hi", "9000"],
+        vec!["--peaks", "0"],
+    ] {
+        let o = run(&[&["distance-report", d][..], &args[..]].concat());
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(args[0]), "{args:?}: {}", stderr(&o));
+    }
+}
+
+/// An input that cannot be read and an output that cannot be written are named with the operation
+/// that failed, by the path the user gave (not a temporary file's).
+#[test]
+fn io_errors_name_the_path_and_the_operation() {
+    let dir = tempfile::tempdir().unwrap();
+    let w = scene(dir.path(), "s.wav", "1");
+    for (args, says) in [
+        (
+            vec!["locate", "/nonexistent/x.wav"],
+            "host-sim: error: /nonexistent/x.wav: cannot read: no such file",
+        ),
+        (
+            vec!["locate", &w, "--config", "/nonexistent/room.toml"],
+            "host-sim: error: /nonexistent/room.toml: cannot read: ",
+        ),
+        (
+            vec!["locate", &w, "-q", "--csv", "/dev/full"],
+            "host-sim: error: /dev/full: cannot write: ",
+        ),
+    ] {
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(e.starts_with(says), "{args:?}: {e}");
+        assert!(
+            !e.contains(".partial") && !e.contains("/tmp/."),
+            "{args:?}: {e}"
+        );
+    }
+}

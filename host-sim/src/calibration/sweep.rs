@@ -185,7 +185,7 @@ pub fn append_info_comment(path: &std::path::Path, text: &str) -> Result<()> {
 /// The `ICMT` comment of a WAV file's `LIST`/`INFO` chunk, if it has one (a missing or malformed
 /// chunk structure gives `None`; reading the file at all is the error).
 pub fn read_info_comment(path: &std::path::Path) -> Result<Option<String>> {
-    let bytes = std::fs::read(path).map_err(|e| SimError::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| SimError::reading(path, e))?;
     Ok(info_comment_of(&bytes))
 }
 

@@ -46,18 +46,26 @@ pub struct BeamArgs {
 
 /// Runs `host-sim beam`.
 pub fn run(a: &BeamArgs) -> Result<()> {
+    if a.config.table.is_some() {
+        return Err(SimError::Usage(
+            "--table cannot be used with beam: it steers with the localizer on the ideal table of \
+             --grid (drop --table)"
+                .into(),
+        ));
+    }
     let mut inputs = vec![("input", a.input.as_path())];
     inputs.extend(a.config.input_files());
     let mut outputs = vec![("--out", a.out.as_path())];
     outputs.extend(a.reverse.as_deref().map(|p| ("--reverse", p)));
     outputs.extend(a.steering_csv.as_deref().map(|p| ("--steering-csv", p)));
     crate::io::output_file::check_distinct(&inputs, &outputs)?;
+    // The flags are checked before the input is read.
+    let config = a.config.config()?;
+    let table = a.config.ideal_table()?;
     let rec = wav_io::read_recording(&a.input, a.input_layout)?;
     if let Some(n) = rec.normalisation {
         eprintln!("{}", n.line());
     }
-    let config = a.config.config()?;
-    let table = a.config.ideal_table()?;
     let steer = match a.steer.as_str() {
         "estimate" => Steer::Estimate,
         "truth" => Steer::Truth(Track::read(&a.input.with_extension("pos.csv"))?),
@@ -98,7 +106,7 @@ pub fn run(a: &BeamArgs) -> Result<()> {
         for (t, az) in &out.steering {
             s.push_str(&format!("{t:.4},{az:.2}\n"));
         }
-        std::fs::write(p, s).map_err(|e| SimError::io(p, e))?;
+        std::fs::write(p, s).map_err(|e| SimError::writing(p, e))?;
     }
     Ok(())
 }

@@ -140,7 +140,7 @@ fn manifest_path(dir: &Path) -> Result<PathBuf> {
 
 /// The (azimuth, file) entries of a manifest; paths relative to its folder.
 pub fn read_manifest(path: &Path) -> Result<Vec<(f64, PathBuf)>> {
-    let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, e))?;
+    let text = std::fs::read_to_string(path).map_err(|e| SimError::reading(path, e))?;
     let base = path.parent().unwrap_or(Path::new(""));
     let mut list = Vec::new();
     // Column positions of (file, azimuth): from a header line, else `file,azimuth_deg`.

@@ -46,6 +46,13 @@ const WRITE_STALL: Duration = Duration::from_secs(10);
 /// The lines `emit` sends for the WAV and configuration of `a` ([`board_lines::lines`]), with the
 /// WAV's rate.
 pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
+    if a.config.table.is_some() {
+        return Err(crate::error::SimError::Usage(
+            "--table cannot be used with emit: it runs the localizer on the ideal table of --grid, \
+             as a board built without CMA_TABLE (drop --table)"
+                .into(),
+        ));
+    }
     let config = a.config.config()?;
     let table = a.config.ideal_table()?;
     let start = a

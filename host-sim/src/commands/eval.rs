@@ -4,7 +4,7 @@ use super::progress_bar;
 use crate::error::{Result, SimError};
 use crate::evaluation::{eval, plots};
 use crate::flags::arg_values;
-use crate::flags::config_args::ConfigArgs;
+use crate::flags::config_args::{ConfigArgs, OnOff};
 use crate::io::stdout_text;
 use crate::io::wav_io::InputLayout;
 use std::path::PathBuf;
@@ -49,6 +49,13 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         }
     }
     if crate::evaluation::multi_talker_eval::is_multi_talker_folder(&a.dir) {
+        if a.config.multi_talker == Some(OnOff::Off) {
+            return Err(SimError::Usage(format!(
+                "--multi-talker off cannot be used with the multi-talker folder {}: its \
+                 evaluation runs the multi-talker tracks (drop --multi-talker off)",
+                a.dir.display()
+            )));
+        }
         return crate::evaluation::multi_talker_eval::run(a);
     }
     let config = a.config.config()?;
@@ -70,7 +77,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         stdout_text::print_text(&eval::format_table(&report))?;
     }
     if let Some(dir) = &a.plots {
-        std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
+        std::fs::create_dir_all(dir).map_err(|e| SimError::doing("create the folder", dir, e))?;
         plots::accuracy_plot(&dir.join(ACCURACY_PLOT), &report)?;
         for s in &scenes {
             let name = s.entry.name();

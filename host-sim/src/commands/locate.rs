@@ -5,7 +5,7 @@
 use super::progress_bar;
 use crate::error::{Result, SimError};
 use crate::evaluation::multi_talker_eval;
-use crate::flags::config_args::ConfigArgs;
+use crate::flags::config_args::{ConfigArgs, OnOff};
 use crate::io::wav_io::InputLayout;
 use crate::io::{estimate_output, output_file, selfcal_file, stdout_text, wav_io};
 use crate::localization::frame_estimates;
@@ -75,7 +75,15 @@ fn is_dash(path: &std::path::Path) -> bool {
 /// Runs `host-sim locate`.
 pub fn run(a: &LocateArgs) -> Result<()> {
     let started = std::time::Instant::now();
+    if a.tracks.is_some() && a.config.multi_talker == Some(OnOff::Off) {
+        return Err(SimError::Usage(
+            "--tracks cannot be used with --multi-talker off: --tracks runs the multi-talker \
+             tracks (drop one)"
+                .into(),
+        ));
+    }
     let config = a.config.config()?;
+    check_selfcal_files(a, &config)?;
     let measured = a.config.measured_table()?;
     let table = a.config.table(measured.as_ref())?;
     // Everything that can be refused is, before any output.
@@ -167,10 +175,6 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         if let Some(path) = &a.selfcal_out {
             selfcal_file::write(path, &located.capsules)?;
         }
-    } else if a.selfcal_out.is_some() {
-        return Err(SimError::Usage(
-            "--selfcal-out: the self-calibration is off (--selfcal off, the thesis preset or a measured table)".into(),
-        ));
     }
     if config.background.enabled && !a.quiet {
         eprintln!(
@@ -191,7 +195,7 @@ pub fn run(a: &LocateArgs) -> Result<()> {
             write(&mut std::io::BufWriter::new(f)).map_err(|e| SimError::io(tmp, e))
         })?,
         None => write(&mut std::io::BufWriter::new(std::io::stdout().lock()))
-            .map_err(|e| SimError::io(stdout_text::STDOUT, e))?,
+            .map_err(|e| SimError::writing(stdout_text::STDOUT, e))?,
     }
     if let Some(path) = &a.tracks {
         multi_talker_eval::write_tracks_file(input, a.input_layout, config, table, path)?;
@@ -204,6 +208,30 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         eprintln!("{}", summary.line());
     }
     Ok(())
+}
+
+/// Refuses `--selfcal-in` and `--selfcal-out` when the self-calibration is off (they would do
+/// nothing), before any work.
+fn check_selfcal_files(a: &LocateArgs, config: &cma_core::LocatorConfig) -> Result<()> {
+    if config.capsule_calibration.enabled {
+        return Ok(());
+    }
+    let given: Vec<&str> = [
+        ("--selfcal-in", a.selfcal_in.is_some()),
+        ("--selfcal-out", a.selfcal_out.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, set)| set.then_some(flag))
+    .collect();
+    if given.is_empty() {
+        return Ok(());
+    }
+    Err(SimError::Usage(format!(
+        "{}: the self-calibration is off (--selfcal off, the thesis preset, the file or a measured \
+         --table); give --selfcal on, or drop {}",
+        given.join(", "),
+        if given.len() == 1 { "it" } else { "them" },
+    )))
 }
 
 /// Refuses a configuration the multi-talker tracks of `--tracks` cannot run with, naming the flag.

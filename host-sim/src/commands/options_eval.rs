@@ -12,8 +12,10 @@ pub struct OptionsEvalArgs {
     /// Worker threads (default: all cores).
     #[arg(long, value_parser = crate::flags::arg_values::threads)]
     pub threads: Option<usize>,
-    /// Flags applied to every variant (as on the `eval` command line), e.g. `--preset thesis`.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Configuration flags applied to every variant (as on the `eval` command line; not eval's own
+    /// flags such as --json), as one argument split as a shell splits it, so a value with spaces
+    /// is quoted inside: `--base "--preset thesis --config 'my room.toml'"`.
+    #[arg(long, allow_hyphen_values = true, value_name = "FLAGS")]
     pub base: Option<String>,
 }
 
@@ -22,12 +24,6 @@ pub fn run(a: &OptionsEvalArgs) -> Result<()> {
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let base: Vec<String> = a
-        .base
-        .as_deref()
-        .unwrap_or("")
-        .split_whitespace()
-        .map(String::from)
-        .collect();
+    let base = crate::evaluation::options_eval::split_base(a.base.as_deref().unwrap_or(""))?;
     crate::evaluation::options_eval::options_table(&a.dir, &base, threads, std::io::stdout().lock())
 }

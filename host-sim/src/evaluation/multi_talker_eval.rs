@@ -504,7 +504,7 @@ impl NoiseTruth {
         if !path.exists() {
             return Ok(Vec::new());
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| SimError::io(&path, e))?;
+        let text = std::fs::read_to_string(&path).map_err(|e| SimError::reading(&path, e))?;
         let bad = |line: usize| {
             SimError::Usage(format!(
                 "{}: line {line}: not a noise source row",
@@ -894,7 +894,7 @@ pub fn run(a: &crate::commands::eval::EvalArgs) -> Result<()> {
                 dir.display()
             )));
         }
-        std::fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
+        std::fs::create_dir_all(dir).map_err(|e| SimError::doing("create the folder", dir, e))?;
     }
     let report = evaluate_with_plots(
         &a.dir,

@@ -127,6 +127,13 @@ impl OptionArgs {
         } else if self.fdiv_std_binary {
             c.intensity.fdiv_spread.binary = true;
         }
+        if self.fdiv_std_binary && !c.intensity.fdiv_spread.enabled() {
+            return Err(SimError::Usage(
+                "--fdiv-std-binary needs the circular-std reliability on: give --fdiv-std S_MAX \
+                 with S_MAX > 0 (or fdiv_spread.max_std_deg in the file)"
+                    .into(),
+            ));
+        }
         Ok(())
     }
 }
@@ -170,19 +177,111 @@ pub const VARIANTS: &[(&str, &str)] = &[
     ),
 ];
 
-/// Parses `extra` flags on top of `base` (flags as on the `eval` command line) into a configuration.
+/// The configuration flags of `options-eval --base` (and of each variant): the localizer
+/// configuration flags of `eval`, nothing else (`eval`'s own flags would do nothing here).
+#[derive(Debug, clap::Parser)]
+#[command(
+    name = "--base",
+    no_binary_name = true,
+    allow_negative_numbers = true,
+    disable_help_flag = true
+)]
+struct ConfigFlags {
+    #[command(flatten)]
+    config: crate::flags::config_args::ConfigArgs,
+}
+
+/// Parses `extra` flags on top of `base` (configuration flags as on the `eval` command line) into a
+/// configuration and its ideal table's grid. Errors name `--base` and the flags.
 pub fn variant_config(base: &[String], extra: &str) -> Result<(LocatorConfig, u32)> {
-    let mut args: Vec<String> = vec!["host-sim".into(), "eval".into(), ".".into()];
-    args.extend(base.iter().cloned());
+    let mut args: Vec<String> = base.to_vec();
     args.extend(extra.split_whitespace().map(String::from));
-    let cli = <crate::Cli as clap::Parser>::try_parse_from(&args).map_err(|e| {
+    let context = if extra.is_empty() {
+        format!("--base `{}`", base.join(" "))
+    } else {
+        format!("--base `{}` with the variant `{extra}`", base.join(" "))
+    };
+    let flags = <ConfigFlags as clap::Parser>::try_parse_from(&args).map_err(|e| {
+        // clap's first line says what is wrong; its usage line would show `--base` as a command.
         let e = e.to_string();
-        SimError::Usage(format!("{extra}: {}", e.trim_start_matches("error: ")))
+        let first = e.lines().next().unwrap_or_default();
+        SimError::Usage(format!(
+            "{context}: {}",
+            first.trim_start_matches("error: ")
+        ))
     })?;
-    match cli.command {
-        crate::Command::Eval(a) => Ok((a.config.config()?, a.config.grid)),
-        _ => Err(SimError::Other("variant did not parse as eval".into())),
+    let config = flags.config.config().map_err(|e| match e {
+        SimError::Usage(m) => SimError::Usage(format!("{context}: {m}")),
+        other => other,
+    })?;
+    if flags.config.table.is_some() {
+        return Err(SimError::Usage(format!(
+            "{context}: --table cannot be used with options-eval: it evaluates on the ideal table \
+             of --grid (drop --table)"
+        )));
     }
+    Ok((config, flags.config.grid))
+}
+
+/// Splits the text of `--base` into arguments as a POSIX shell would split a command line: at
+/// unquoted white space, with '…' (literal) and "…" (where \\ and \" escape) quoting and \ escaping
+/// one character outside quotes, so a path with spaces can be given (`--config 'my room.toml'`).
+pub fn split_base(text: &str) -> Result<Vec<String>> {
+    let mut args = Vec::new();
+    let mut arg: Option<String> = None;
+    let mut chars = text.chars();
+    let unbalanced = |q: char| {
+        SimError::Usage(format!(
+            "--base: the quote {q} in `{text}` is not closed (quote a flag's value as in a shell: \
+             --base \"--config 'my room.toml'\")"
+        ))
+    };
+    while let Some(c) = chars.next() {
+        match c {
+            c if c.is_whitespace() => {
+                if let Some(a) = arg.take() {
+                    args.push(a);
+                }
+            }
+            '\'' => {
+                let a = arg.get_or_insert_with(String::new);
+                loop {
+                    match chars.next() {
+                        Some('\'') => break,
+                        Some(c) => a.push(c),
+                        None => return Err(unbalanced('\'')),
+                    }
+                }
+            }
+            '"' => {
+                let a = arg.get_or_insert_with(String::new);
+                loop {
+                    match chars.next() {
+                        Some('"') => break,
+                        Some('\\') => match chars.next() {
+                            Some(c @ ('"' | '\\')) => a.push(c),
+                            Some(c) => {
+                                a.push('\\');
+                                a.push(c);
+                            }
+                            None => return Err(unbalanced('"')),
+                        },
+                        Some(c) => a.push(c),
+                        None => return Err(unbalanced('"')),
+                    }
+                }
+            }
+            '\\' => {
+                let a = arg.get_or_insert_with(String::new);
+                if let Some(c) = chars.next() {
+                    a.push(c);
+                }
+            }
+            c => arg.get_or_insert_with(String::new).push(c),
+        }
+    }
+    args.extend(arg);
+    Ok(args)
 }
 
 /// Runs every variant of [`VARIANTS`] on `dir` and writes the Markdown table to `sink`, a row at a
@@ -193,6 +292,10 @@ pub fn options_table(
     threads: usize,
     mut sink: impl std::io::Write,
 ) -> Result<()> {
+    // Every variant's flags are checked before the first row is written.
+    for (_, extra) in VARIANTS {
+        variant_config(base, extra)?;
+    }
     let io = |e: std::io::Error| SimError::io("<output>", e);
     write!(sink, "{}", String::from(
         "| variant | flags | anechoic ACC5 / ACC10 / MAE | room ACC5 / ACC10 / MAE | jump ACC10 / settle (mean s) | moving ACC10 / MAE | all ACC5 / ACC10 / MAE |\n|---|---|---|---|---|---|---|\n",
@@ -240,6 +343,48 @@ mod tests {
     use cma_core::config::Tracking;
     use cma_core::curve_kernel::CurveKernel;
     use cma_core::refine_curve::{DistancePower, RefineCurve};
+
+    #[test]
+    fn base_is_split_as_a_shell_splits_it() {
+        let split = |t: &str| split_base(t).unwrap();
+        assert_eq!(split(""), Vec::<String>::new());
+        assert_eq!(split("  --preset   thesis "), ["--preset", "thesis"]);
+        assert_eq!(
+            split("--config 'my room.toml' --peaks=8"),
+            ["--config", "my room.toml", "--peaks=8"]
+        );
+        assert_eq!(
+            split(r#"--config "a \"b\" c.toml" x\ y ''"#),
+            ["--config", r#"a "b" c.toml"#, "x y", ""]
+        );
+        for bad in ["--config 'room.toml", "--config \"room"] {
+            let e = split_base(bad).unwrap_err().to_string();
+            assert!(e.starts_with("--base: the quote") && e.contains(bad), "{e}");
+        }
+    }
+
+    #[test]
+    fn base_errors_name_base_and_the_flag() {
+        let base = |t: &str| split_base(t).unwrap();
+        let e = variant_config(&base("--frobnicate"), "").unwrap_err();
+        let e = e.to_string();
+        assert!(
+            e.starts_with("--base `--frobnicate`: unexpected argument '--frobnicate'"),
+            "{e}"
+        );
+        assert!(!e.contains("Usage") && !e.contains("eval"), "{e}");
+        // eval's own flags would do nothing here.
+        assert!(variant_config(&base("--json"), "").is_err());
+        let e = variant_config(&base("--preset thesis"), "--sharpness 3")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("--base `--preset thesis` with the variant `--sharpness 3`: --sharpness"),
+            "{e}"
+        );
+        let (c, grid) = variant_config(&base("--preset thesis --grid 15"), "").unwrap();
+        assert_eq!((c, grid), (LocatorConfig::thesis(), 15));
+    }
 
     #[test]
     fn flags_reach_the_config_and_defaults_are_untouched() {

@@ -140,8 +140,14 @@ pub struct ConfigArgs {
     /// Localization method.
     #[arg(long, value_enum, help_heading = "Configuration")]
     pub method: Option<MethodArg>,
-    /// Azimuth grid of the ideal reference table, degrees (5 or 15).
-    #[arg(long, default_value_t = 5, help_heading = "Configuration")]
+    /// Azimuth grid of the ideal reference table, degrees (5 or 15); not with a measured --table,
+    /// which has its own grid.
+    #[arg(
+        long,
+        default_value_t = 5,
+        conflicts_with = "table",
+        help_heading = "Configuration"
+    )]
     pub grid: u32,
     /// Measured reference table (`host-sim calibrate`); replaces the ideal table of --grid.
     #[arg(long, help_heading = "Configuration")]
@@ -155,7 +161,7 @@ pub struct ConfigArgs {
     /// Analysis band upper edge, Hz.
     #[arg(long, value_parser = crate::flags::arg_values::positive, help_heading = "Analysis: peaks and features")]
     pub band_hi: Option<f32>,
-    /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm, e.g. `l1`).
+    /// Similarity measure: `euclid`, `cosine` or `lP` (L_p norm with P from 0.25 to 32, e.g. `l1`).
     #[arg(long, help_heading = "Similarity: measure, kernel, noisy references")]
     pub measure: Option<String>,
     /// The per-peak term of the similarity curve.
@@ -190,8 +196,13 @@ pub struct ConfigArgs {
     /// Peak features: magnitude ratios (the thesis preset) or active ratios (the default preset).
     #[arg(long, value_enum, help_heading = "Analysis: peaks and features")]
     pub features: Option<FeaturesArg>,
-    /// Switch reliability weighting off (b = 1 for every frame).
-    #[arg(long, help_heading = "Reliability: weighting, noise gate, frame onset")]
+    /// Switch reliability weighting off (b = 1 for every frame); not with the weighting's settings
+    /// (--speed, --vmax, --vfloor, --reliability-exponent), which then do nothing.
+    #[arg(
+        long,
+        conflicts_with_all = ["speed", "vmax", "vfloor", "reliability_exponent"],
+        help_heading = "Reliability: weighting, noise gate, frame onset"
+    )]
     pub no_reliability: bool,
     /// Speed factor K of the reliability weighting.
     #[arg(long, value_parser = crate::flags::arg_values::non_negative, help_heading = "Reliability: weighting, noise gate, frame onset")]
@@ -351,6 +362,80 @@ impl ConfigArgs {
         }
     }
 
+    /// The flags given that set a stage switched off by another flag, or by the preset or the file
+    /// (`tracker_off`: the configuration has no grid tracker): a usage error naming both, as such a
+    /// flag would do nothing.
+    fn check_switched_off(&self, tracker_off: bool) -> Result<()> {
+        let given = |flags: &[(&'static str, bool)]| -> Vec<&'static str> {
+            flags.iter().filter(|(_, g)| *g).map(|(f, _)| *f).collect()
+        };
+        let grid_flags = given(&[
+            ("--sharpness", self.sharpness.is_some()),
+            ("--diffusion", self.diffusion.is_some()),
+            ("--jump-prob", self.jump_prob.is_some()),
+            ("--onset-jump-prob", self.onset_jump_prob.is_some()),
+            ("--pause-frames", self.pause_frames.is_some()),
+            ("--onset-frames", self.onset_frames.is_some()),
+            ("--onset-floor", self.onset_floor.is_some()),
+            ("--refine-gain", self.refine_gain.is_some()),
+            ("--refine-limit", self.refine_limit.is_some()),
+            ("--refine-curve", self.refine_curve.is_some()),
+        ]);
+        let gate_flags = given(&[
+            ("--gate-rise", self.gate_rise.is_some()),
+            ("--gate-open", self.gate_open.is_some()),
+            ("--gate-full", self.gate_full.is_some()),
+        ]);
+        let onset_flags = given(&[
+            ("--frame-onset-history", self.frame_onset_history.is_some()),
+            ("--frame-onset-low", self.frame_onset_low.is_some()),
+            ("--frame-onset-high", self.frame_onset_high.is_some()),
+            ("--frame-onset-floor", self.frame_onset_floor.is_some()),
+        ]);
+        let adapt_flags = given(&[("--selfcal-adapt", self.selfcal_adapt.is_some())]);
+        let tracker = if self.tracker == Some(TrackerArg::Onepole) {
+            "--tracker onepole"
+        } else {
+            "the one-pole curve filter the preset or the file selects"
+        };
+        let off = |on: Option<OnOff>| on == Some(OnOff::Off);
+        for (switched_off, by, flags, what) in [
+            (tracker_off, tracker, grid_flags, "--tracker grid"),
+            (
+                off(self.noise_gate),
+                "--noise-gate off",
+                gate_flags,
+                "--noise-gate on",
+            ),
+            (
+                off(self.frame_onset),
+                "--frame-onset off",
+                onset_flags,
+                "--frame-onset on",
+            ),
+            (
+                off(self.selfcal),
+                "--selfcal off",
+                adapt_flags,
+                "--selfcal on",
+            ),
+        ] {
+            if switched_off && !flags.is_empty() {
+                return Err(SimError::Usage(format!(
+                    "{} cannot be used with {by}: {} the stage it switches off (drop one, or give \
+                     {what})",
+                    flags.join(", "),
+                    if flags.len() == 1 {
+                        "it sets"
+                    } else {
+                        "they set"
+                    },
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// The configuration these flags describe.
     pub fn config(&self) -> Result<LocatorConfig> {
         let mut c = cma_config::Preset::from(self.preset).config();
@@ -462,6 +547,7 @@ impl ConfigArgs {
             (Some(TrackerArg::Grid), _) | (None, Tracking::Grid(_)) => Tracking::Grid(grid),
             (None, Tracking::OnePole) => Tracking::OnePole,
         };
+        self.check_switched_off(c.tracking == Tracking::OnePole)?;
         if let Some(v) = self.noise_gate {
             c.noise_gate.enabled = v == OnOff::On;
         }
@@ -560,7 +646,15 @@ fn check_flags(before_flags: &LocatorConfig, config: &LocatorConfig) -> Result<(
     let flags: Vec<String> = e
         .keys()
         .iter()
-        .filter_map(|key| FLAG_KEYS.iter().find(|(_, k)| k == key))
+        .filter_map(|key| {
+            // The flag of the key itself, else of the setting it is part of (`measure` for
+            // `measure.Lp`).
+            FLAG_KEYS.iter().find(|(_, k)| k == key).or_else(|| {
+                FLAG_KEYS
+                    .iter()
+                    .find(|(_, k)| key.strip_prefix(k).is_some_and(|r| r.starts_with('.')))
+            })
+        })
         .map(|(id, _)| format!("--{}", id.replace('_', "-")))
         .collect();
     if flags.is_empty() {
@@ -574,17 +668,18 @@ fn check_flags(before_flags: &LocatorConfig, config: &LocatorConfig) -> Result<(
 }
 
 fn parse_measure(s: &str) -> Result<SimilarityMeasure> {
+    let (lo, hi) = cma_config::LP_RANGE;
     match s {
         "euclid" | "euclidean" | "l2" => Ok(SimilarityMeasure::Euclidean),
         "cosine" | "cos" => Ok(SimilarityMeasure::Cosine),
         other => other
             .strip_prefix('l')
             .and_then(|p| p.parse::<f32>().ok())
-            .filter(|p| *p > 0.0 && p.is_finite())
+            .filter(|p| (lo..=hi).contains(&f64::from(*p)))
             .map(SimilarityMeasure::Lp)
             .ok_or_else(|| {
                 SimError::Usage(format!(
-                    "--measure: expected euclid, cosine or lP with P > 0, got `{other}`"
+                    "--measure: expected euclid, cosine or lP with P from {lo} to {hi}, got `{other}`"
                 ))
             }),
     }
@@ -670,8 +765,12 @@ pub fn flag_notes() -> Vec<(&'static str, String)> {
 }
 
 /// Appends to the help of every configuration flag of `cmd` its note from `notes`
-/// ([`flag_notes`]).
+/// ([`flag_notes`]); a command without the configuration flags (no `--preset`, e.g.
+/// `distance-report`, whose `--peaks` is its own) is left as it is.
 pub fn annotate(mut cmd: clap::Command, notes: &[(&'static str, String)]) -> clap::Command {
+    if !cmd.get_arguments().any(|a| a.get_id() == "preset") {
+        return cmd;
+    }
     // Every argument is touched in its order, as `mut_arg` moves the argument to the end: the
     // help keeps the declaration order (and with it the order of the headings).
     let ids: Vec<clap::Id> = cmd.get_arguments().map(|a| a.get_id().clone()).collect();

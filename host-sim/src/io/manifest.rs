@@ -180,11 +180,11 @@ pub fn append_row(manifest: &Path, header: &str, row: &str) -> Result<()> {
         .create(true)
         .append(true)
         .open(manifest)
-        .map_err(|e| SimError::io(manifest, e))?;
+        .map_err(|e| SimError::writing(manifest, e))?;
     if new {
-        writeln!(f, "{header}").map_err(|e| SimError::io(manifest, e))?;
+        writeln!(f, "{header}").map_err(|e| SimError::writing(manifest, e))?;
     }
-    writeln!(f, "{row}").map_err(|e| SimError::io(manifest, e))
+    writeln!(f, "{row}").map_err(|e| SimError::writing(manifest, e))
 }
 
 #[cfg(test)]

@@ -40,11 +40,11 @@ fn resolve(path: &Path) -> Result<Target> {
         let meta = match std::fs::symlink_metadata(&p) {
             Ok(m) => m,
             Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Target::Replace(p)),
-            Err(e) => return Err(SimError::io(path, e)),
+            Err(e) => return Err(SimError::writing(path, e)),
         };
         let kind = meta.file_type();
         if kind.is_symlink() {
-            let link = std::fs::read_link(&p).map_err(|e| SimError::io(&p, e))?;
+            let link = std::fs::read_link(&p).map_err(|e| SimError::writing(&p, e))?;
             p = match p.parent() {
                 Some(dir) if link.is_relative() => dir.join(link),
                 _ => link,
@@ -55,7 +55,7 @@ fn resolve(path: &Path) -> Result<Target> {
         } else if kind.is_file() {
             return Ok(Target::Replace(p));
         } else if kind.is_dir() {
-            return Err(SimError::io(
+            return Err(SimError::writing(
                 path,
                 io::Error::new(io::ErrorKind::IsADirectory, "is a folder, not a file"),
             ));
@@ -63,7 +63,7 @@ fn resolve(path: &Path) -> Result<Target> {
             return Ok(Target::Stream(p));
         }
     }
-    Err(SimError::io(
+    Err(SimError::writing(
         path,
         io::Error::other(format!("more than {MAX_LINKS} symbolic links")),
     ))
@@ -72,20 +72,37 @@ fn resolve(path: &Path) -> Result<Target> {
 /// Writes an output file: `write` gets a temporary path to create and fill; on success the result
 /// lands at `path` as the module documentation describes, on failure nothing at `path` changes.
 pub fn write(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    // An error on the temporary file names the output instead: the hidden name means nothing to
+    // the user.
+    let write = move |tmp: &Path| {
+        write(tmp).map_err(|e| match e {
+            SimError::Io {
+                path: p,
+                op,
+                source,
+            } if p == tmp => SimError::Io {
+                path: path.to_path_buf(),
+                op: op.or(Some("write")),
+                source,
+            },
+            e => e,
+        })
+    };
     match resolve(path)? {
         Target::Replace(target) => replace(&target, write),
         Target::Stream(target) => {
-            let tmp = tempfile::NamedTempFile::new().map_err(|e| SimError::io(path, e))?;
+            let tmp = tempfile::NamedTempFile::new().map_err(|e| SimError::writing(path, e))?;
             write(tmp.path())?;
-            let mut from = std::fs::File::open(tmp.path()).map_err(|e| SimError::io(path, e))?;
+            let mut from =
+                std::fs::File::open(tmp.path()).map_err(|e| SimError::writing(path, e))?;
             let mut to = std::fs::OpenOptions::new()
                 .write(true)
                 .open(&target)
-                .map_err(|e| SimError::io(path, e))?;
+                .map_err(|e| SimError::writing(path, e))?;
             io::copy(&mut from, &mut to)
                 .and_then(|_| io::Write::flush(&mut to))
                 .map(|_| ())
-                .map_err(|e| SimError::io(path, e))
+                .map_err(|e| SimError::writing(path, e))
         }
     }
 }
@@ -104,7 +121,7 @@ pub(crate) fn folder_of(path: &Path) -> &Path {
 pub fn check_folder(path: &Path) -> Result<()> {
     let dir = folder_of(path);
     if std::fs::symlink_metadata(path).is_err() && !dir.is_dir() {
-        return Err(SimError::io(
+        return Err(SimError::writing(
             path,
             io::Error::new(
                 io::ErrorKind::NotFound,
@@ -218,15 +235,15 @@ fn replace(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()>
             .next()
             .unwrap_or_default()
             .to_string();
-        SimError::io(target, io::Error::new(e.kind(), text))
+        SimError::writing(target, io::Error::new(e.kind(), text))
     })?;
     if let Some(p) = existing {
-        std::fs::set_permissions(tmp.path(), p).map_err(|e| SimError::io(target, e))?;
+        std::fs::set_permissions(tmp.path(), p).map_err(|e| SimError::writing(target, e))?;
     }
     write(tmp.path())?;
     tmp.persist(target)
         .map(|_| ())
-        .map_err(|e| SimError::io(target, e.error))
+        .map_err(|e| SimError::writing(target, e.error))
 }
 
 #[cfg(all(test, unix))]
@@ -254,6 +271,28 @@ mod tests {
         assert_eq!(e.to_string(), "failed");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "two\n");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_failed_write_names_the_output_and_the_operation_not_the_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        let e = write(&p, |tmp| {
+            Err(SimError::io(
+                tmp,
+                io::Error::other("no space left on device"),
+            ))
+        })
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            format!("{}: cannot write: no space left on device", p.display())
+        );
+        let e = write(&dir.path().join("sub").join("x.csv"), text("x"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("x.csv: cannot write: the folder"), "{e}");
     }
 
     #[test]

@@ -9,7 +9,7 @@ pub fn print_text(text: &str) -> Result<()> {
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes())
         .and_then(|()| out.flush())
-        .map_err(|e| SimError::io(STDOUT, e))
+        .map_err(|e| SimError::writing(STDOUT, e))
 }
 
 /// The path name used for standard output in errors.
@@ -19,6 +19,6 @@ pub const STDOUT: &str = "<stdout>";
 /// wanted no more (e.g. `head`), so the command ends successfully without a message.
 #[must_use]
 pub fn is_closed_stdout(e: &SimError) -> bool {
-    matches!(e, SimError::Io { path, source }
+    matches!(e, SimError::Io { path, source, .. }
         if path.as_os_str() == STDOUT && source.kind() == std::io::ErrorKind::BrokenPipe)
 }

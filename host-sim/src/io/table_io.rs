@@ -120,7 +120,7 @@ impl OwnedTable {
         let mut bytes = Vec::new();
         std::fs::File::open(path)
             .and_then(|f| f.take(MAX_TABLE_BYTES as u64 + 1).read_to_end(&mut bytes))
-            .map_err(|e| SimError::io(path, e))?;
+            .map_err(|e| SimError::reading(path, e))?;
         if bytes.len() > MAX_TABLE_BYTES {
             return Err(SimError::Other(format!(
                 "{}: larger than {} MiB, more than any reference table",

@@ -18,11 +18,11 @@ pub fn read(path: &Path) -> Result<String> {
 
 /// Reads a file of at most `max` bytes once (a pipe works); larger files are an error.
 pub fn read_bytes(path: &Path, max: u64) -> Result<Vec<u8>> {
-    let file = std::fs::File::open(path).map_err(|e| SimError::io(path, e))?;
+    let file = std::fs::File::open(path).map_err(|e| SimError::reading(path, e))?;
     let mut bytes = Vec::new();
     file.take(max + 1)
         .read_to_end(&mut bytes)
-        .map_err(|e| SimError::io(path, e))?;
+        .map_err(|e| SimError::reading(path, e))?;
     if bytes.len() as u64 > max {
         return Err(SimError::Other(format!(
             "{}: larger than {}, not a file this tool reads here",

@@ -457,12 +457,12 @@ impl WavStream {
     pub fn open(path: &Path) -> Result<Self> {
         let file = std::fs::File::open(path).map_err(|e| {
             if e.kind() == std::io::ErrorKind::NotFound {
-                SimError::io(
+                SimError::reading(
                     path,
                     std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
                 )
             } else {
-                SimError::io(path, e)
+                SimError::reading(path, e)
             }
         })?;
         // Only a regular file's length says how much can follow (a pipe's or a device's does not).
@@ -559,7 +559,7 @@ impl WavStream {
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
                 Err(e) => {
                     self.done = true;
-                    return Err(SimError::io(&self.path, e));
+                    return Err(SimError::reading(&self.path, e));
                 }
             }
         }
