@@ -162,12 +162,41 @@ pub fn summary(est: &CapsuleEstimate, confidence: f32) -> String {
             b.peaks
         );
     }
+    let empty = est.bands.iter().filter(|b| !(b.peaks > 0.0)).count();
+    if est.held && empty > 0 {
+        let _ = writeln!(
+            s,
+            "  nothing learned in {empty} of {} bands: their background was not diffuse (a steady \
+             noise source from the start?); an estimate learned without it corrects them \
+             (--selfcal-in FILE, or the board's stored one)",
+            est.bands.len()
+        );
+    }
     s
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A held estimate with bands that never learned says so and what helps; one that learned in
+    /// every band, or is not held, does not.
+    #[test]
+    fn the_summary_names_bands_a_non_diffuse_background_kept_from_learning() {
+        let mut est = CapsuleEstimate::IDEAL;
+        est.bands[0].peaks = 648.0;
+        est.held = true;
+        let text = summary(&est, 0.0);
+        assert!(text.contains("nothing learned in 3 of 4 bands"), "{text}");
+        assert!(text.contains("--selfcal-in"), "{text}");
+        est.held = false;
+        assert!(!summary(&est, 0.0).contains("nothing learned"));
+        est.held = true;
+        for b in &mut est.bands {
+            b.peaks = 100.0;
+        }
+        assert!(!summary(&est, 0.5).contains("nothing learned"));
+    }
 
     #[test]
     fn a_store_image_gives_its_newest_record_exactly() {
