@@ -38,6 +38,8 @@ VARIANTS = {
                       "[background]\nenabled = false\n"),
     "no noise gate": ("the noise gate on each frame's level above its tracked floor",
                       "[noise_gate]\nenabled = false\n"),
+    "no directional gate": ("the noise gate's higher opening beside a directional background",
+                            "[noise_gate]\ndirectional_db = 0.0\n"),
     "no frame onset": ("the frame onset weight (rising level favoured)",
                        "[frame_onset]\nenabled = false\n"),
     "no peak onset": ("the per-peak onset weight (direct sound favoured)",
@@ -72,6 +74,8 @@ GROUPS = {
     "walk-stop": ["walk_stop"],
     "noise sources": ["noise_mild_early", "noise_mild_late", "noise_strong_early",
                       "noise_strong_late"],
+    "broadband sources": ["broadband_mild_early", "broadband_mild_late",
+                          "broadband_strong_early", "broadband_strong_late"],
     "imperfect": ["imperfect_cold", "imperfect_adapted"],
     "loudspeaker": ["loudspeaker", "loudspeaker_matched"],
 }
