@@ -654,6 +654,19 @@ fn conflicting_flags_are_refused_naming_both() {
             vec!["locate", missing, "--fdiv-std-binary"],
             vec!["--fdiv-std-binary", "--fdiv-std"],
         ),
+        (
+            vec![
+                "emit",
+                missing,
+                "--port",
+                "/nonexistent/pty",
+                "--selfcal",
+                "off",
+                "--selfcal-in",
+                "x.selfcal",
+            ],
+            vec!["--selfcal-in", "self-calibration is off"],
+        ),
     ] {
         let o = run(&args);
         let e = stderr(&o);
@@ -706,6 +719,12 @@ fn options_eval_base_and_distance_report_help() {
         assert!(e.contains(says), "{base}: {e}");
         assert!(e.matches("For more information").count() <= 1, "{e}");
     }
+    // A folder without a manifest: an error naming it, and no table header before it.
+    let o = run(&["options-eval", d]);
+    let e = stderr(&o);
+    assert_ne!(o.status.code(), Some(0), "{e}");
+    assert!(o.stdout.is_empty(), "nothing printed before the error: {e}");
+    assert!(e.contains("manifest.csv"), "{e}");
     let help = String::from_utf8(run(&["options-eval", "--help"]).stdout).unwrap();
     assert!(help.contains("'my room.toml'"), "{help}");
     let help = String::from_utf8(run(&["distance-report", "--help"]).stdout).unwrap();

@@ -292,10 +292,12 @@ pub fn options_table(
     threads: usize,
     mut sink: impl std::io::Write,
 ) -> Result<()> {
-    // Every variant's flags are checked before the first row is written.
+    // Every variant's flags, and the folder's manifest, are checked before the first row is
+    // written.
     for (_, extra) in VARIANTS {
         variant_config(base, extra)?;
     }
+    crate::io::manifest::read(dir)?;
     let io = |e: std::io::Error| SimError::io("<output>", e);
     write!(sink, "{}", String::from(
         "| variant | flags | anechoic ACC5 / ACC10 / MAE | room ACC5 / ACC10 / MAE | jump ACC10 / settle (mean s) | moving ACC10 / MAE | all ACC5 / ACC10 / MAE |\n|---|---|---|---|---|---|---|\n",
