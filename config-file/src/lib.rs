@@ -29,6 +29,7 @@
 mod rust_code;
 
 use cma_core::similarity::SimilarityMeasure;
+use cma_core::track_spans::MAX_SPAN_FRAMES;
 use cma_core::{Locator, LocatorConfig, ReferenceTable};
 use std::fmt;
 use toml::{Table, Value};
@@ -286,6 +287,9 @@ pub struct Range {
 /// estimates fall apart.
 pub const LP_RANGE: (f64, f64) = (0.25, 32.0);
 
+// The span keys' texts below say "0 to 24".
+const _: () = assert!(MAX_SPAN_FRAMES == 24);
+
 /// The settings [`parse_over`], [`validate_changes`] and [`validate`] check the range of, beyond
 /// the core's own check.
 pub const RANGES: &[Range] = &[
@@ -329,13 +333,13 @@ pub const RANGES: &[Range] = &[
         key: "multi_track.span_gap_frames",
         valid: "0 to 24 (with span_lead_frames at most 24 frames of delay)",
         value: |c| Some(f64::from(c.multi_track.span_gap_frames)),
-        accepts: |v| v <= 24.0,
+        accepts: |v| v <= MAX_SPAN_FRAMES as f64,
     },
     Range {
         key: "multi_track.span_lead_frames",
         valid: "0 to 24 (with span_gap_frames at most 24 frames of delay)",
         value: |c| Some(f64::from(c.multi_track.span_lead_frames)),
-        accepts: |v| v <= 24.0,
+        accepts: |v| v <= MAX_SPAN_FRAMES as f64,
     },
 ];
 

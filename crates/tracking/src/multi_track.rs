@@ -266,7 +266,7 @@ impl MultiTrack {
             && self.active_on <= 1.0
             && self.birth_mass > 0.0
             && self.birth_mass.is_finite()
-            && (self.span_gap_frames + self.span_lead_frames) as usize
+            && self.span_gap_frames.saturating_add(self.span_lead_frames) as usize
                 <= crate::track_spans::MAX_SPAN_FRAMES
             && self.span_min_frames <= self.span_gap_frames.max(1)
     }
@@ -1143,6 +1143,12 @@ mod tests {
             },
             MultiTrack {
                 hold_evidence: 1.5,
+                ..MultiTrack::DEFAULT
+            },
+            // Frame counts whose sum overflows u32: refused, not a panic.
+            MultiTrack {
+                span_gap_frames: u32::MAX,
+                span_lead_frames: 6,
                 ..MultiTrack::DEFAULT
             },
         ];
