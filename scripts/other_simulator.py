@@ -52,7 +52,6 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -60,6 +59,7 @@ import scipy.io.wavfile as wavfile
 from scipy.signal import fftconvolve
 
 import ism_validation as ism
+from stored_estimate import score_from_stored
 
 FS = ism.FS
 LOOKS = np.radians([0.0, 120.0, 240.0])
@@ -475,28 +475,10 @@ def stored_estimate(out, workers):
                 continue
             jobs.setdefault((wav, twin), []).append((set_name, lo, hi))
     with ThreadPoolExecutor(workers) as ex:
-        sets = [s for ss in ex.map(lambda j: score_from_stored(out, *j), sorted(jobs.items()))
-                for s in ss]
+        sets = [dict(s, jumps=[]) for ss in ex.map(
+                    lambda j: score_from_stored(ism.HOST_SIM, out, *j[0], j[1]),
+                    sorted(jobs.items())) for s in ss]
     return summarise({"sets": sets})
-
-
-def score_from_stored(out, files, windows):
-    wav, twin = files
-    with tempfile.TemporaryDirectory() as tmp:
-        est, est_csv = os.path.join(tmp, "estimate.bin"), os.path.join(tmp, "scene.csv")
-        for cmd in ([ism.HOST_SIM, "locate", os.path.join(out, twin), "--quiet", "--csv",
-                     os.path.join(tmp, "twin.csv"), "--selfcal-out", est],
-                    [ism.HOST_SIM, "locate", os.path.join(out, wav), "--quiet", "--csv", est_csv,
-                     "--selfcal-in", est]):
-            subprocess.run(cmd, capture_output=True, text=True, check=True)
-        sets = []
-        for set_name, lo, hi in windows:
-            r = subprocess.run([ism.HOST_SIM, "score", est_csv,
-                                os.path.join(out, wav.replace(".wav", ".pos.csv")), "--from", lo,
-                                "--to", hi, "--json"], capture_output=True, text=True, check=True)
-            sets.append({"set": set_name, "settled": json.loads(r.stdout)["sets"][0]["settled"],
-                         "jumps": []})
-        return sets
 
 
 def cell(e):
