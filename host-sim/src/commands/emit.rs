@@ -54,13 +54,7 @@ pub fn lines(a: &EmitArgs) -> Result<(u32, Vec<Line>)> {
         ));
     }
     let config = a.config.config()?;
-    if a.selfcal_in.is_some() && !config.capsule_calibration.enabled {
-        return Err(crate::error::SimError::Usage(
-            "--selfcal-in: the self-calibration is off (--selfcal off, the thesis preset or the \
-             file); give --selfcal on, or drop it"
-                .into(),
-        ));
-    }
+    selfcal_file::check_used(&[("--selfcal-in", a.selfcal_in.is_some())], &config)?;
     let table = a.config.ideal_table()?;
     let start = a
         .selfcal_in

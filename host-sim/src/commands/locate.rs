@@ -83,7 +83,13 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         ));
     }
     let config = a.config.config()?;
-    check_selfcal_files(a, &config)?;
+    selfcal_file::check_used(
+        &[
+            ("--selfcal-in", a.selfcal_in.is_some()),
+            ("--selfcal-out", a.selfcal_out.is_some()),
+        ],
+        &config,
+    )?;
     let measured = a.config.measured_table()?;
     let table = a.config.table(measured.as_ref())?;
     // Everything that can be refused is, before any output.
@@ -208,30 +214,6 @@ pub fn run(a: &LocateArgs) -> Result<()> {
         eprintln!("{}", summary.line());
     }
     Ok(())
-}
-
-/// Refuses `--selfcal-in` and `--selfcal-out` when the self-calibration is off (they would do
-/// nothing), before any work.
-fn check_selfcal_files(a: &LocateArgs, config: &cma_core::LocatorConfig) -> Result<()> {
-    if config.capsule_calibration.enabled {
-        return Ok(());
-    }
-    let given: Vec<&str> = [
-        ("--selfcal-in", a.selfcal_in.is_some()),
-        ("--selfcal-out", a.selfcal_out.is_some()),
-    ]
-    .into_iter()
-    .filter_map(|(flag, set)| set.then_some(flag))
-    .collect();
-    if given.is_empty() {
-        return Ok(());
-    }
-    Err(SimError::Usage(format!(
-        "{}: the self-calibration is off (--selfcal off, the thesis preset, the file or a measured \
-         --table); give --selfcal on, or drop {}",
-        given.join(", "),
-        if given.len() == 1 { "it" } else { "them" },
-    )))
 }
 
 /// Refuses a configuration the multi-talker tracks of `--tracks` cannot run with, naming the flag.

@@ -131,6 +131,27 @@ fn is_store_image(path: &Path) -> bool {
         && (head == capsule_estimate_record::MAGIC || head[0] == 0xFF)
 }
 
+/// Refuses the estimate-file flags of `given` (flag, whether it was given) when `config`'s
+/// self-calibration is off (they would do nothing), before any work.
+pub fn check_used(given: &[(&str, bool)], config: &cma_core::LocatorConfig) -> Result<()> {
+    if config.capsule_calibration.enabled {
+        return Ok(());
+    }
+    let given: Vec<&str> = given
+        .iter()
+        .filter_map(|(flag, set)| set.then_some(*flag))
+        .collect();
+    if given.is_empty() {
+        return Ok(());
+    }
+    Err(SimError::Usage(format!(
+        "{}: the self-calibration is off (--selfcal off, the thesis preset, the file or a measured \
+         --table); give --selfcal on, or drop {}",
+        given.join(", "),
+        if given.len() == 1 { "it" } else { "them" },
+    )))
+}
+
 /// A few lines for the terminal: per band the gains (dB) and patterns β of the three cardioids.
 #[must_use]
 pub fn summary(est: &CapsuleEstimate, confidence: f32) -> String {
