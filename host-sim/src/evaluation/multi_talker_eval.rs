@@ -96,6 +96,8 @@ pub fn track_frames(
     config: LocatorConfig,
     table: ReferenceTable<'_>,
 ) -> Result<Vec<TrackFrame>> {
+    // 48 and 96 kHz at the boards' 16 kHz, as `locate` runs them.
+    let rec = &*crate::localization::analysis_rate::analysis_recording(rec);
     let mut loc =
         Locator::new(with_tracks(config), table, rec.rate).map_err(|source| SimError::Core {
             context: "configuration".into(),

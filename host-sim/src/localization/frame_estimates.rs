@@ -5,6 +5,7 @@
 use crate::error::{Result, SimError};
 use crate::io::fixed_decimal::write_fixed;
 use crate::io::wav_io::{Recording, RecordingStream};
+use crate::localization::analysis_rate::{core_rate, RateConverter};
 use cma_core::background_field::{BackgroundBand, BG_BANDS};
 use cma_core::capsule_calibration::CapsuleEstimate;
 use cma_core::{Estimate, Locator, LocatorConfig, ReferenceTable};
@@ -105,7 +106,11 @@ pub fn locate_stream_calibrated(
 /// A localizer and the rows it has emitted.
 struct Run<'t> {
     loc: Locator<'t>,
+    /// The core's input rate ([`core_rate`] of the recording's).
     rate: u32,
+    /// Brings 48 and 96 kHz to 16 kHz before the core.
+    convert: Option<RateConverter>,
+    converted: Vec<[f32; 4]>,
     rows: Vec<Row>,
 }
 
@@ -116,6 +121,8 @@ impl<'t> Run<'t> {
         rate: u32,
         rows: usize,
     ) -> Result<Self> {
+        let convert = RateConverter::for_rate(rate);
+        let rate = core_rate(rate);
         let loc = Locator::new(config, table, rate).map_err(|source| SimError::Core {
             context: "configuration".into(),
             source,
@@ -123,15 +130,26 @@ impl<'t> Run<'t> {
         Ok(Self {
             loc,
             rate,
+            convert,
+            converted: Vec::new(),
             rows: Vec::with_capacity(rows),
         })
     }
 
     /// Feeds frames in blocks of [`BLOCK`] (`frames` starts on a block boundary: every chunk but the
-    /// last is a multiple of [`BLOCK`]).
+    /// last is a multiple of [`BLOCK`]); at 48 and 96 kHz each block is converted to
+    /// 16 kHz first. `progress` counts the recording's frames.
     fn feed(&mut self, frames: &[[f32; 4]], mut progress: impl FnMut(usize)) {
         let rate = self.rate;
-        for block in frames.chunks(BLOCK) {
+        for input in frames.chunks(BLOCK) {
+            let block = match &mut self.convert {
+                Some(conv) => {
+                    self.converted.clear();
+                    conv.process(input, &mut self.converted);
+                    &self.converted[..]
+                }
+                None => input,
+            };
             let rows = &mut self.rows;
             self.loc.process_block(block, |e| {
                 rows.push(Row {
@@ -139,7 +157,7 @@ impl<'t> Run<'t> {
                     estimate: *e,
                 })
             });
-            progress(block.len());
+            progress(input.len());
         }
     }
 }
