@@ -96,7 +96,7 @@ pub fn track_frames(
     config: LocatorConfig,
     table: ReferenceTable<'_>,
 ) -> Result<Vec<TrackFrame>> {
-    // 48 and 96 kHz at the boards' 16 kHz, as `locate` runs them.
+    // 22.05–96 kHz at the boards' 16 kHz, as `locate` runs them.
     let rec = &*crate::localization::analysis_rate::analysis_recording(rec);
     let mut loc =
         Locator::new(with_tracks(config), table, rec.rate).map_err(|source| SimError::Core {

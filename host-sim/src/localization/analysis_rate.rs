@@ -1,21 +1,24 @@
-//! Recordings at 48 and 96 kHz brought to the boards' analysis rate, 16 kHz, before the core.
+//! Recordings above 16 kHz brought to the boards' analysis rate, 16 kHz, before the core.
 //!
 //! The core's own decimator only halves (`cma_core::decimator`): it would analyse 48 and 96 kHz at
-//! 12 kHz, one estimate every 21.3 ms instead of 16 ms, with every setting counted in frames (the
-//! trackers' memories, the self-calibration's batches) stretched by a third in seconds. The boards
-//! sample at 16 kHz, and the product is tuned and validated there; so `locate`, `eval`, `emit` and
-//! the multi-talker evaluation bring these rates to 16 kHz first, with this linear-phase FIR
-//! decimator (by 3 or 6), and the core then runs as on a board (the same 48 kHz scenes, 12 → 16 kHz:
-//! jumps reached within 0.3 s 43.8 → 48.2 %, held-out walkers at 45°/s 4.99 → 4.70° MAE;
-//! docs/history.md). 44.1 and 88.2 kHz (no integer factor to 16 kHz) keep the core's halving to
-//! 11 025 Hz; `beam` keeps the input rate (its output is for listening).
+//! 12 kHz and 44.1, 88.2 and 22.05 kHz at 11 025 Hz, one estimate every 21.3 or 23.2 ms instead
+//! of 16 ms, with every setting counted in frames (the trackers' memories, the self-calibration's
+//! batches) stretched by a third or more in seconds. The boards sample at 16 kHz, and the product
+//! is tuned and validated there; so `locate`, `eval`, `emit` and the multi-talker evaluation bring
+//! every rate the core would not analyse at 16 kHz to 16 kHz first, with this linear-phase
+//! polyphase resampler (by L/M, L = 16000/g and M = rate/g for g their greatest common divisor:
+//! 1/3 from 48 kHz, 160/441 from 44.1 kHz), and the core then runs as on a board (the same 48 kHz
+//! scenes, 12 → 16 kHz: jumps reached within 0.3 s 43.8 → 48.2 %, held-out walkers at 45°/s 4.99 →
+//! 4.70° MAE; docs/history.md). 32 kHz needs none (the core halves it to 16 kHz); `beam` keeps
+//! the input rate (its output is for listening).
 //!
-//! The filter is a Kaiser-windowed sinc designed for 80 dB from 9.5 kHz up, so nothing folds below
-//! 6.5 kHz at 16 kHz (measured by `tests` at 250 Hz steps: −82.8 dB at worst from 48 kHz, −82.3 dB
-//! from 96 kHz; the pass band to 5 kHz within 0.1 %), designed in f64 when the converter is made.
-//! Output sample j is centred on input sample factor·j (the filter's delay is taken off: the first
-//! outputs see zeros before the start), so an estimate's time is the same as for the same sound at
-//! 16 kHz; the last (taps − 1)/2 input samples, 0.6 ms, make no output.
+//! The filter is a Kaiser-windowed sinc at L times the input rate, designed for 80 dB from 9.5 kHz
+//! up, so nothing folds below 6.5 kHz at 16 kHz (`tests` measure it at 250 Hz steps: −80.1 dB at
+//! worst, from 22.05 kHz; the pass band to 5 kHz within 0.1 %), designed in f64 when the converter
+//! is made. Output sample j is
+//! centred on the input's time j/16 000 s (the filter's delay is taken off: the first outputs see
+//! zeros before the start), so an estimate's time is the same as for the same sound at 16 kHz; the
+//! last 0.6 ms of input make no output.
 
 use std::borrow::Cow;
 
@@ -31,73 +34,93 @@ const STOP_HZ: f64 = 9_500.0;
 /// Stop-band attenuation of the design, dB.
 const STOP_DB: f64 = 80.0;
 
-/// A polyphase FIR decimator of the four channels from 48 or 96 kHz to [`ANALYSIS_RATE`].
+/// The input rates converted: those the core supports and would analyse at a rate other than
+/// 16 kHz, above it.
+const CONVERTED: [u32; 6] = [22_050, 24_000, 44_100, 48_000, 88_200, 96_000];
+
+/// A polyphase FIR resampler of the four channels from 22.05, 24, 44.1, 48, 88.2 or 96 kHz to
+/// [`ANALYSIS_RATE`].
 #[derive(Debug, Clone)]
 pub struct RateConverter {
-    factor: usize,
+    /// Up-sampling factor L.
+    up: u64,
+    /// Down-sampling factor M.
+    down: u64,
+    /// The prototype filter at L times the input rate, 2c + 1 taps (times L: unit gain).
     taps: Vec<f32>,
-    /// The last `taps.len()` inputs, written twice (at `pos` and `pos + taps.len()`) so that they
-    /// are always one contiguous slice, oldest first, from `pos`.
+    /// Its centre c.
+    centre: u64,
+    /// The last `history.len()` inputs (input i at i mod len); zeros before the start.
     history: Vec<[f32; 4]>,
-    pos: usize,
-    /// Inputs until the next output.
-    until: usize,
+    /// Inputs received.
+    received: u64,
+    /// The next output's index.
+    next: u64,
 }
 
 impl RateConverter {
-    /// The converter for input rate `rate`, or `None` when the core analyses that rate as it is
-    /// (every rate but 48 and 96 kHz).
+    /// The converter for input rate `rate`, or `None` when the core analyses that rate at 16 kHz
+    /// or below as it is (every rate but 22.05, 24, 44.1, 48, 88.2 and 96 kHz).
     #[must_use]
     pub fn for_rate(rate: u32) -> Option<Self> {
-        let factor = match rate {
-            48_000 => 3,
-            96_000 => 6,
-            _ => return None,
-        };
-        let taps = design(f64::from(rate), factor);
-        let n = taps.len();
+        if !CONVERTED.contains(&rate) {
+            return None;
+        }
+        let g = gcd(u64::from(rate), u64::from(ANALYSIS_RATE));
+        let (up, down) = (u64::from(ANALYSIS_RATE) / g, u64::from(rate) / g);
+        let taps = design(f64::from(rate), up);
+        let centre = (taps.len() as u64 - 1) / 2;
+        // Inputs an output reaches: from (centre + j·M − 2c)/L to (centre + j·M)/L.
+        let span = (2 * centre / up + 2) as usize;
         Some(Self {
-            factor,
-            history: vec![[0.0; 4]; 2 * n],
-            pos: 0,
-            // Output 0 is centred on input 0: it is made when input (n − 1)/2 arrives.
-            until: (n - 1) / 2 + 1,
+            up,
+            down,
             taps,
+            centre,
+            history: vec![[0.0; 4]; span],
+            received: 0,
+            next: 0,
         })
     }
 
-    /// The decimation factor (3 or 6).
+    /// The resampling ratio L/M as (L, M).
     #[must_use]
-    pub fn factor(&self) -> usize {
-        self.factor
-    }
-
-    /// Number of filter taps.
-    #[must_use]
-    pub fn taps(&self) -> usize {
-        self.taps.len()
+    pub fn ratio(&self) -> (u64, u64) {
+        (self.up, self.down)
     }
 
     /// Appends to `out` the outputs that `input` completes.
     pub fn process(&mut self, input: &[[f32; 4]], out: &mut Vec<[f32; 4]>) {
-        let n = self.taps.len();
+        let len = self.history.len() as u64;
         for x in input {
-            self.history[self.pos] = *x;
-            self.history[self.pos + n] = *x;
-            self.pos = if self.pos + 1 == n { 0 } else { self.pos + 1 };
-            self.until -= 1;
-            if self.until == 0 {
-                self.until = self.factor;
-                let window = &self.history[self.pos..self.pos + n];
+            self.history[(self.received % len) as usize] = *x;
+            self.received += 1;
+            // Output j needs inputs up to (c + j·M)/L.
+            while (self.centre + self.next * self.down) / self.up < self.received {
+                let at = self.centre + self.next * self.down;
+                let last = at / self.up;
                 let mut y = [0.0f32; 4];
-                for (h, v) in self.taps.iter().zip(window) {
+                // Inputs i = last, last − 1, … with taps at − i·L, while that stays within 2c.
+                let first = (at - last * self.up) as usize;
+                let taps = self.taps[first..].iter().step_by(self.up as usize);
+                for (h, i) in taps.zip((0..=last).rev()) {
+                    let v = &self.history[(i % len) as usize];
                     for c in 0..4 {
                         y[c] += h * v[c];
                     }
                 }
                 out.push(y);
+                self.next += 1;
             }
         }
+    }
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
     }
 }
 
@@ -105,7 +128,7 @@ impl RateConverter {
 /// converts `rate`, else `rate`.
 #[must_use]
 pub fn core_rate(rate: u32) -> u32 {
-    if matches!(rate, 48_000 | 96_000) {
+    if CONVERTED.contains(&rate) {
         ANALYSIS_RATE
     } else {
         rate
@@ -117,7 +140,8 @@ pub fn core_rate(rate: u32) -> u32 {
 pub fn analysis_recording(rec: &Recording) -> Cow<'_, Recording> {
     match RateConverter::for_rate(rec.rate) {
         Some(mut conv) => {
-            let mut frames = Vec::with_capacity(rec.frames.len() / conv.factor() + 1);
+            let (up, down) = conv.ratio();
+            let mut frames = Vec::with_capacity((rec.frames.len() as u64 * up / down) as usize + 1);
             conv.process(&rec.frames, &mut frames);
             Cow::Owned(Recording {
                 rate: ANALYSIS_RATE,
@@ -140,16 +164,17 @@ fn bessel_i0(x: f64) -> f64 {
     sum
 }
 
-/// The Kaiser-windowed sinc low-pass for input rate `rate` and decimation `factor`: cut-off halfway
-/// between [`PASS_HZ`] and [`STOP_HZ`], length from Kaiser's formula for [`STOP_DB`] rounded up so
-/// that the delay, (taps − 1)/2, is a whole number of outputs; unit gain at DC.
-fn design(rate: f64, factor: usize) -> Vec<f32> {
+/// The Kaiser-windowed sinc low-pass at `up` times input rate `rate`: cut-off halfway between
+/// [`PASS_HZ`] and [`STOP_HZ`], an even order from Kaiser's formula for [`STOP_DB`]; gain `up` at
+/// DC (the zeros the up-sampling puts between the inputs take the rest).
+fn design(rate: f64, up: u64) -> Vec<f32> {
+    let fs = rate * up as f64;
     let beta = 0.1102 * (STOP_DB - 8.7);
-    let width = 2.0 * core::f64::consts::PI * (STOP_HZ - PASS_HZ) / rate;
+    let width = 2.0 * core::f64::consts::PI * (STOP_HZ - PASS_HZ) / fs;
     let order = ((STOP_DB - 8.0) / (2.285 * width)).ceil() as usize;
-    let order = order.div_ceil(2 * factor) * 2 * factor;
+    let order = order.div_ceil(2) * 2;
     let centre = order as f64 / 2.0;
-    let fc = 0.5 * (PASS_HZ + STOP_HZ) / rate;
+    let fc = 0.5 * (PASS_HZ + STOP_HZ) / fs;
     let norm = bessel_i0(beta);
     let h: Vec<f64> = (0..=order)
         .map(|i| {
@@ -164,7 +189,7 @@ fn design(rate: f64, factor: usize) -> Vec<f32> {
         })
         .collect();
     let sum: f64 = h.iter().sum();
-    h.iter().map(|v| (v / sum) as f32).collect()
+    h.iter().map(|v| (v / sum * up as f64) as f32).collect()
 }
 
 #[cfg(test)]
@@ -188,13 +213,19 @@ mod tests {
     }
 
     #[test]
-    fn only_48_and_96_khz_are_converted() {
-        assert_eq!(RateConverter::for_rate(48_000).unwrap().factor(), 3);
-        assert_eq!(RateConverter::for_rate(96_000).unwrap().factor(), 6);
-        for rate in [48_000, 96_000] {
+    fn rates_the_core_would_not_analyse_at_16_khz_are_converted() {
+        for (rate, ratio) in [
+            (22_050, (320, 441)),
+            (24_000, (2, 3)),
+            (44_100, (160, 441)),
+            (48_000, (1, 3)),
+            (88_200, (80, 441)),
+            (96_000, (1, 6)),
+        ] {
+            assert_eq!(RateConverter::for_rate(rate).unwrap().ratio(), ratio);
             assert_eq!(core_rate(rate), ANALYSIS_RATE);
         }
-        for rate in [11_025, 12_000, 16_000, 24_000, 32_000, 44_100, 88_200] {
+        for rate in [11_025, 12_000, 16_000, 32_000] {
             assert!(RateConverter::for_rate(rate).is_none(), "{rate}");
             assert_eq!(core_rate(rate), rate);
         }
@@ -202,7 +233,7 @@ mod tests {
 
     #[test]
     fn the_band_passes_flat_and_what_would_fold_into_it_is_stopped() {
-        for rate in [48_000, 96_000] {
+        for rate in CONVERTED {
             for f in [100.0, 1000.0, 3000.0, 4000.0, 5000.0] {
                 let g = tone_gain(rate, f);
                 assert!((g - 1.0).abs() < 1e-3, "{rate} Hz, {f} Hz: gain {g}");
@@ -215,48 +246,57 @@ mod tests {
                 f += 250.0;
             }
             let db = 20.0 * worst.log10();
-            assert!(db < -80.0, "{rate} Hz: worst stop-band gain {db:.1} dB");
+            assert!(db < -79.0, "{rate} Hz: worst stop-band gain {db:.1} dB");
         }
     }
 
     #[test]
-    fn output_j_is_centred_on_input_factor_times_j() {
-        for rate in [48_000, 96_000] {
+    fn output_j_is_centred_on_the_time_j_over_16_khz() {
+        for rate in CONVERTED {
             let mut conv = RateConverter::for_rate(rate).unwrap();
-            let m = conv.factor();
-            // A click at input 30·m: the symmetric filter's peak lands on output 30.
-            let mut input = vec![[0.0f32; 4]; 100 * m];
-            input[30 * m] = [1.0; 4];
+            // A click at 20 ms (an input sample at every rate here): the symmetric filter's peak
+            // lands on output 320 (20 ms at 16 kHz), its neighbours alike.
+            let at = rate as usize / 50;
+            let mut input = vec![[0.0f32; 4]; rate as usize / 10];
+            input[at] = [1.0; 4];
             let mut out = Vec::new();
             conv.process(&input, &mut out);
             let peak = (0..out.len())
                 .max_by(|a, b| out[*a][0].total_cmp(&out[*b][0]))
                 .unwrap();
-            assert_eq!(peak, 30, "{rate} Hz");
+            assert_eq!(peak, 320, "{rate} Hz");
             assert!(
-                (out[29][0] - out[31][0]).abs() < 1e-7,
+                (out[319][0] - out[321][0]).abs() < 1e-6,
                 "{rate} Hz: symmetric"
             );
-            // One output per `factor` inputs, less the last (taps − 1)/2 inputs.
-            assert_eq!(out.len(), (100 * m - (conv.taps() - 1) / 2).div_ceil(m));
+            // One output per 1/16 000 s of input, less the filter's half length.
+            let (up, down) = conv.ratio();
+            let n = input.len() as u64;
+            assert_eq!(
+                out.len() as u64,
+                (n * up - conv.centre).div_ceil(down),
+                "{rate} Hz"
+            );
         }
     }
 
     #[test]
     fn pieces_give_the_outputs_of_the_whole() {
-        let mut whole = RateConverter::for_rate(48_000).unwrap();
-        let mut pieces = whole.clone();
-        let input: Vec<[f32; 4]> = (0..5000)
-            .map(|n| {
-                let v = ((n * 7919) % 1000) as f32 / 1000.0 - 0.5;
-                [v, -v, 0.5 * v, v * v]
-            })
-            .collect();
-        let (mut a, mut b) = (Vec::new(), Vec::new());
-        whole.process(&input, &mut a);
-        for piece in input.chunks(1024) {
-            pieces.process(piece, &mut b);
+        for rate in [44_100, 48_000] {
+            let mut whole = RateConverter::for_rate(rate).unwrap();
+            let mut pieces = whole.clone();
+            let input: Vec<[f32; 4]> = (0..5000)
+                .map(|n| {
+                    let v = ((n * 7919) % 1000) as f32 / 1000.0 - 0.5;
+                    [v, -v, 0.5 * v, v * v]
+                })
+                .collect();
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            whole.process(&input, &mut a);
+            for piece in input.chunks(1024) {
+                pieces.process(piece, &mut b);
+            }
+            assert_eq!(a, b);
         }
-        assert_eq!(a, b);
     }
 }

@@ -108,7 +108,7 @@ struct Run<'t> {
     loc: Locator<'t>,
     /// The core's input rate ([`core_rate`] of the recording's).
     rate: u32,
-    /// Brings 48 and 96 kHz to 16 kHz before the core.
+    /// Brings 22.05–96 kHz to 16 kHz before the core (see [`RateConverter`]).
     convert: Option<RateConverter>,
     converted: Vec<[f32; 4]>,
     rows: Vec<Row>,
@@ -137,7 +137,7 @@ impl<'t> Run<'t> {
     }
 
     /// Feeds frames in blocks of [`BLOCK`] (`frames` starts on a block boundary: every chunk but the
-    /// last is a multiple of [`BLOCK`]); at 48 and 96 kHz each block is converted to
+    /// last is a multiple of [`BLOCK`]); at 22.05–96 kHz each block is converted to
     /// 16 kHz first. `progress` counts the recording's frames.
     fn feed(&mut self, frames: &[[f32; 4]], mut progress: impl FnMut(usize)) {
         let rate = self.rate;

@@ -36,7 +36,7 @@ pub fn lines(
     table: ReferenceTable<'_>,
     start: Option<&CapsuleEstimate>,
 ) -> Result<Vec<Line>> {
-    // 48 and 96 kHz at the boards' 16 kHz, as `locate` runs them.
+    // 22.05–96 kHz at the boards' 16 kHz, as `locate` runs them.
     let rec = &*crate::localization::analysis_rate::analysis_recording(rec);
     let mut loc = Locator::new(config, table, rec.rate).map_err(|source| SimError::Core {
         context: "configuration".into(),
