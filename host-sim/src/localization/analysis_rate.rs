@@ -23,6 +23,7 @@
 use std::borrow::Cow;
 
 use crate::io::wav_io::Recording;
+use cma_core::decimator::Decimator;
 
 /// The rate the converter delivers, Hz (the boards' sample rate).
 pub const ANALYSIS_RATE: u32 = 16_000;
@@ -34,9 +35,12 @@ const STOP_HZ: f64 = 9_500.0;
 /// Stop-band attenuation of the design, dB.
 const STOP_DB: f64 = 80.0;
 
-/// The input rates converted: those the core supports and would analyse at a rate other than
-/// 16 kHz, above it.
-const CONVERTED: [u32; 6] = [22_050, 24_000, 44_100, 48_000, 88_200, 96_000];
+/// Whether input rate `rate` is converted: a rate above 16 kHz that the core's own decimator
+/// supports and would bring to another analysis rate (22.05, 24, 44.1, 48, 88.2 and 96 kHz).
+fn converts(rate: u32) -> bool {
+    rate > ANALYSIS_RATE
+        && Decimator::for_rate(rate).is_ok_and(|d| d.output_rate() != ANALYSIS_RATE)
+}
 
 /// A polyphase FIR resampler of the four channels from 22.05, 24, 44.1, 48, 88.2 or 96 kHz to
 /// [`ANALYSIS_RATE`].
@@ -63,7 +67,7 @@ impl RateConverter {
     /// or below as it is (every rate but 22.05, 24, 44.1, 48, 88.2 and 96 kHz).
     #[must_use]
     pub fn for_rate(rate: u32) -> Option<Self> {
-        if !CONVERTED.contains(&rate) {
+        if !converts(rate) {
             return None;
         }
         let g = gcd(u64::from(rate), u64::from(ANALYSIS_RATE));
@@ -95,10 +99,14 @@ impl RateConverter {
         for x in input {
             self.history[(self.received % len) as usize] = *x;
             self.received += 1;
-            // Output j needs inputs up to (c + j·M)/L.
-            while (self.centre + self.next * self.down) / self.up < self.received {
+            loop {
+                // Output j is centred at c + j·M (at L times the input rate) and needs the inputs
+                // up to (c + j·M)/L.
                 let at = self.centre + self.next * self.down;
                 let last = at / self.up;
+                if last >= self.received {
+                    break;
+                }
                 let mut y = [0.0f32; 4];
                 // Inputs i = last, last − 1, … with taps at − i·L, while that stays within 2c.
                 let first = (at - last * self.up) as usize;
@@ -128,7 +136,7 @@ fn gcd(a: u64, b: u64) -> u64 {
 /// converts `rate`, else `rate`.
 #[must_use]
 pub fn core_rate(rate: u32) -> u32 {
-    if CONVERTED.contains(&rate) {
+    if converts(rate) {
         ANALYSIS_RATE
     } else {
         rate
@@ -196,6 +204,9 @@ fn design(rate: f64, up: u64) -> Vec<f32> {
 mod tests {
     use super::*;
 
+    /// The rates the core supports and analyses at other than 16 kHz, above it.
+    const CONVERTED: [u32; 6] = [22_050, 24_000, 44_100, 48_000, 88_200, 96_000];
+
     /// Gain of the converter for a tone at `freq` Hz (the output's RMS after the start, × √2).
     fn tone_gain(rate: u32, freq: f64) -> f64 {
         let mut conv = RateConverter::for_rate(rate).unwrap();
@@ -225,7 +236,7 @@ mod tests {
             assert_eq!(RateConverter::for_rate(rate).unwrap().ratio(), ratio);
             assert_eq!(core_rate(rate), ANALYSIS_RATE);
         }
-        for rate in [11_025, 12_000, 16_000, 32_000] {
+        for rate in [8_000, 11_025, 12_000, 16_000, 32_000, 50_000] {
             assert!(RateConverter::for_rate(rate).is_none(), "{rate}");
             assert_eq!(core_rate(rate), rate);
         }
