@@ -38,7 +38,7 @@ use crate::input_guard::InputGuard;
 use crate::intensity::IntensityVector;
 #[cfg(feature = "multi-talker")]
 use crate::multi_track::MultiTrackState;
-use crate::noise_floor::NoiseFloor;
+use crate::noise_floor::{NoiseFloor, START_UP_S};
 use crate::reference_table::ReferenceTable;
 use crate::similarity::PeakFeature;
 use crate::similarity_frame::SimilarityFrame;
@@ -470,7 +470,7 @@ impl<'t> Locator<'t> {
         level: &Level,
         flags: &mut Flags,
     ) -> (f32, f32, f32) {
-        let (gate, onset) = self.similarity_gates(level);
+        let (gate, onset) = self.similarity_gates(level, index);
         let c = &self.config;
         // The frame's usable peaks: per-frame scratch on the stack (static RAM is the scarcer).
         let mut used = [PeakFeature::NONE; MAX_PEAKS];
@@ -534,13 +534,16 @@ impl<'t> Locator<'t> {
         (azimuth, raw.unwrap_or(azimuth), b)
     }
 
-    /// The similarity method's gate of the frame (`level`'s gate times the noise-floor gate, when
-    /// on) and its frame onset weight (1 when off).
-    fn similarity_gates(&mut self, level: &Level) -> (f32, f32) {
+    /// The similarity method's gate of frame `index` (`level`'s gate times the noise-floor gate,
+    /// when on; closed in the floor's start-up, [`START_UP_S`]) and its frame onset weight (1 when
+    /// off).
+    fn similarity_gates(&mut self, level: &Level, index: u32) -> (f32, f32) {
         let c = &self.config;
         let gate = if c.noise_gate.enabled {
             let directional = self.similarity.background_is_directional();
-            level.gate * self.noise_floor.update(level.power, directional)
+            let frames_per_s = self.analysis_rate() as f32 * (1.0 / HOP as f32);
+            let starting = (index as f32) < START_UP_S * frames_per_s;
+            level.gate * self.noise_floor.update(level.power, directional, starting)
         } else {
             level.gate
         };

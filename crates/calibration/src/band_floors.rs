@@ -105,7 +105,7 @@ impl<const B: usize> BandFloors<B> {
             if !(p > 0.0) || !p.is_finite() {
                 continue;
             }
-            self.floor[b].update(p, false);
+            self.floor[b].update(p, false, false);
             self.background[b] = clean && p <= self.floor[b].floor() * self.background_ratio;
         }
     }

@@ -1527,7 +1527,7 @@ mod tests {
         learn(&mut above);
         let mut at_floor = fresh();
         for floor in &mut at_floor.bands.floor {
-            floor.update(1.0, false);
+            floor.update(1.0, false, false);
         }
         learn(&mut at_floor);
         for band in 0..CAL_BANDS {
