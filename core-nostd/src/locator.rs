@@ -535,8 +535,8 @@ impl<'t> Locator<'t> {
     }
 
     /// The similarity method's gate of frame `index` (`level`'s gate times the noise-floor gate,
-    /// when on; closed in the floor's start-up, [`START_UP_S`]) and its frame onset weight (1 when
-    /// off).
+    /// when on; in the floor's start-up, [`START_UP_S`], the floor rises faster) and its frame
+    /// onset weight (1 when off).
     fn similarity_gates(&mut self, level: &Level, index: u32) -> (f32, f32) {
         let c = &self.config;
         let gate = if c.noise_gate.enabled {
