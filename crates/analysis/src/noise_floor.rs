@@ -105,6 +105,12 @@ impl NoiseFloor {
         }
     }
 
+    /// Sets the tracked floor to `floor` (NaN forgets it: the next frame with positive power
+    /// starts it over).
+    pub fn set(&mut self, floor: f32) {
+        self.floor = floor;
+    }
+
     /// The tracked floor (mean-square power; NaN before the first frame with positive power).
     #[must_use]
     pub fn floor(&self) -> f32 {

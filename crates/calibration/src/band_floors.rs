@@ -18,8 +18,6 @@ pub struct BandFloors<const B: usize> {
     pub(crate) power: [f32; B],
     /// Whether each band is background in this frame.
     pub(crate) background: [bool; B],
-    /// A floor before its first frame (its rise per frame set), for restarts.
-    fresh: NoiseFloor,
     /// Band power over its floor up to which the band is background (power ratio).
     background_ratio: f32,
 }
@@ -33,7 +31,6 @@ impl<const B: usize> BandFloors<B> {
             floor: [NoiseFloor::idle(); B],
             power: [0.0; B],
             background: [false; B],
-            fresh: NoiseFloor::idle(),
             background_ratio: 1.0,
         }
     }
@@ -68,16 +65,22 @@ impl<const B: usize> BandFloors<B> {
             rise_db_per_s,
             ..NoiseGate::OFF
         };
-        s.fresh = NoiseFloor::new(&gate, frames_per_s);
-        s.floor = [s.fresh; B];
+        s.floor = [NoiseFloor::new(&gate, frames_per_s); B];
         s.background_ratio = power_ratio_from_db(background_db);
         s
     }
 
     /// Forgets the floors and this frame's flags (the bands stay).
     pub fn restart(&mut self) {
-        self.floor = [self.fresh; B];
+        self.forget_floors();
         self.background = [false; B];
+    }
+
+    /// Forgets the floors: each starts over at the band's next frame with power.
+    pub fn forget_floors(&mut self) {
+        for f in &mut self.floor {
+            f.set(f32::NAN);
+        }
     }
 
     /// The band of bin `k`: the number of bands before the last that end at or below it.
