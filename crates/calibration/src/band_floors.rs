@@ -72,15 +72,10 @@ impl<const B: usize> BandFloors<B> {
 
     /// Forgets the floors and this frame's flags (the bands stay).
     pub fn restart(&mut self) {
-        self.forget_floors();
-        self.background = [false; B];
-    }
-
-    /// Forgets the floors: each starts over at the band's next frame with power.
-    pub fn forget_floors(&mut self) {
         for f in &mut self.floor {
             f.set(f32::NAN);
         }
+        self.background = [false; B];
     }
 
     /// The band of bin `k`: the number of bands before the last that end at or below it.
