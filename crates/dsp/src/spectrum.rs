@@ -5,7 +5,7 @@
 //! imaginary part of bin 0. [`windowed_spectrum`] unpacks it so that `out[0]` is DC (imaginary 0) and
 //! `out[256]` is Nyquist; the test below pins this quirk down.
 
-use crate::tables::{HAMMING_512, SINE_QUARTER_512};
+use crate::tables::{hamming, SINE_QUARTER_512};
 use crate::{FRAME_LEN, NUM_BINS};
 use microfft::Complex32;
 
@@ -32,7 +32,14 @@ pub fn windowed_spectrum(
 #[cfg(not(target_arch = "x86_64"))]
 fn microfft_spectrum(frame: &[f32; FRAME_LEN], out: &mut [Complex32; NUM_BINS]) {
     let buf = bins_as_floats(out);
-    for ((s, x), w) in buf.iter_mut().zip(frame.iter()).zip(HAMMING_512.iter()) {
+    // The window's two halves, the second mirrored (w[n] = w[511 − n]).
+    let half = &crate::tables::HAMMING_HALF_512;
+    let (lo, hi) = buf.split_at_mut(FRAME_LEN / 2);
+    let (flo, fhi) = frame.split_at(FRAME_LEN / 2);
+    for ((s, x), w) in lo.iter_mut().zip(flo).zip(half) {
+        *s = x * w;
+    }
+    for ((s, x), w) in hi.iter_mut().zip(fhi).zip(half.iter().rev()) {
         *s = x * w;
     }
     let _ = microfft::real::rfft_512(buf);
@@ -88,7 +95,7 @@ pub fn fold_windowed(frame: &[f32; FRAME_LEN], out: &mut [Complex32; NUM_BINS]) 
     const C1: f32 = 0.923_879_5;
     const S1: f32 = 0.382_683_43;
     for n in 0..SIXTEENTH {
-        let x = |m: usize| frame[n + SIXTEENTH * m] * HAMMING_512[n + SIXTEENTH * m];
+        let x = |m: usize| frame[n + SIXTEENTH * m] * hamming(n + SIXTEENTH * m);
         let (e0, e4, e) = dft8_real(core::array::from_fn(|m| x(2 * m)));
         let (o0, o4, o) = dft8_real(core::array::from_fn(|m| x(2 * m + 1)));
         out[n] = Complex32::new(e0 + o0, e0 - o0);
