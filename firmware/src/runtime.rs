@@ -29,7 +29,10 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     static PANICKED: AtomicBool = AtomicBool::new(false);
     cortex_m::interrupt::disable();
     if !PANICKED.swap(true, Ordering::Relaxed) {
-        let message = info.message().as_str().unwrap_or("(a message with arguments)");
+        let message = info
+            .message()
+            .as_str()
+            .unwrap_or("(a message with arguments)");
         match info.location() {
             Some(at) => defmt::error!(
                 "panicked at {=str}:{=u32}: {=str}",

@@ -75,7 +75,9 @@
 //! source through. There the talker decides ([`CapsuleCalibration::speech_check`],
 //! [`crate::speech_check`]): a capsule's omni error moves the talker's own sound as it moves the
 //! background, a source does not, and the part of the omni parts' correction that the talker's
-//! frames do not support is not applied.
+//! frames do not support is not applied, and what they ask for beyond the background's
+//! correction (consistently over the places the talker was heard from) is added: the whole omni
+//! correction where a source from power-on held the background's estimate.
 //!
 //! # Confidence
 //! Each band's estimate rests on n background peaks (a forgetting count), and its sampling error
@@ -860,6 +862,9 @@ pub struct CapsuleCalibrationState {
     omni_shift: (f32, f32),
     /// The factor of the omni parts' correction the talker's frames support.
     omni_scale: f32,
+    /// The shift of the features' plane vector the talker's frames ask for beyond the scaled
+    /// omni correction ([`SpeechCheck::residual_shift`]), added to every band's correction.
+    omni_extra: (f32, f32),
     speech: SpeechCheck,
     /// Speech frames the check has taken.
     speech_frames: u32,
@@ -918,6 +923,7 @@ impl CapsuleCalibrationState {
             correction: [Correction::IDENTITY; CAL_BANDS],
             omni_shift: (0.0, 0.0),
             omni_scale: 1.0,
+            omni_extra: (0.0, 0.0),
             speech: SpeechCheck::new(),
             speech_frames: 0,
             forget: 1.0,
@@ -972,6 +978,7 @@ impl CapsuleCalibrationState {
             self.sums[band] = BandSums::of_model(&self.accepted.bands[band]);
         }
         self.omni_scale = 1.0;
+        self.omni_extra = (0.0, 0.0);
         self.speech.clear();
         self.speech_frames = 0;
         self.update_corrections();
@@ -992,6 +999,13 @@ impl CapsuleCalibrationState {
             self.settings.max_omni_spread,
             self.omni_scale,
         );
+        // The talker's further shift, the same in every band.
+        let extra = from_plane([self.omni_extra.0 / 1.5, self.omni_extra.1 / 1.5]);
+        for c in &mut self.correction {
+            for (c0, e) in c.c0.iter_mut().zip(extra) {
+                *c0 += e;
+            }
+        }
     }
 
     /// Adds a used peak (features `y` from the corrected cardioids) to the talker's check of the
@@ -1001,8 +1015,10 @@ impl CapsuleCalibrationState {
         if self.settings.speech_check {
             let (vx, vy) = plane_vector(y);
             let k = self.omni_scale;
-            self.speech
-                .add_peak((vx - k * self.omni_shift.0, vy - k * self.omni_shift.1));
+            self.speech.add_peak((
+                vx - k * self.omni_shift.0 - self.omni_extra.0,
+                vy - k * self.omni_shift.1 - self.omni_extra.1,
+            ));
         }
     }
 
@@ -1033,9 +1049,11 @@ impl CapsuleCalibrationState {
         if !self.speech_frames.is_multiple_of(CHECK_FRAMES) {
             return;
         }
-        let scale = self.speech.scale(self.omni_shift);
-        if (scale - self.omni_scale).abs() > 0.01 {
+        let (scale, extra) = self.speech.verdict(self.omni_shift);
+        let moved = (extra.0 - self.omni_extra.0).abs() + (extra.1 - self.omni_extra.1).abs();
+        if (scale - self.omni_scale).abs() > 0.01 || moved > 0.002 {
             self.omni_scale = scale;
+            self.omni_extra = extra;
             self.update_corrections();
         }
     }
