@@ -183,10 +183,10 @@ impl SpeechCheck {
     /// and less: the fit is applied only below 0.6, fully from 0.45 down.
     ///
     /// d: the least-squares vector with c_k + (κ·s + d)·n_k ≈ 0 over the sectors k (n_k a
-    /// sector's mean across-track direction, each weighing up to [`FULL_SECTOR_FRAMES`] frames'
-    /// worth), with a ridge of [`RIDGE`] sectors toward 0; none unless [`MIN_SECTORS`] sectors'
-    /// worth agree on it (rms offset left at most [`MAX_MISFIT`]), and shrunk by the room's
-    /// offsets ([`RESIDUAL_NOISE`], positive-part James–Stein).
+    /// sector's mean across-track direction, each weighing in full from 100 speech frames on),
+    /// with a ridge of 0.1 sectors toward 0; none unless four sectors' worth agree on it (rms
+    /// offset left at most 0.05), and shrunk by the room's offsets (0.04, positive-part
+    /// James–Stein).
     #[inline(never)]
     #[must_use]
     pub fn verdict(&self, shift: (f32, f32)) -> (f32, (f32, f32)) {
