@@ -58,7 +58,7 @@ fn main() {
         .collect();
     write_f32_array(
         &mut out,
-        "/// First half (n = 0…255) of the symmetric Hamming window of the analysis frame (Matlab\n/// `hamming(512)`); w[n] = w[511 − n] (`tables::hamming`).",
+        "/// First half (n = 0…255) of the symmetric Hamming window of the analysis frame (Matlab\n/// `hamming(512)`); `w[n] = w[511 − n]` (`tables::hamming`).",
         "HAMMING_HALF_512",
         &window,
     );
