@@ -50,9 +50,19 @@ pub fn locate(wav: &Path, extra: &[&str]) -> Vec<CsvEstimate> {
 /// Absolute wrapped error of each estimate after `from_s` against a fixed truth.
 #[must_use]
 pub fn errors_after(rows: &[CsvEstimate], from_s: f64, truth_deg: f64) -> Vec<f64> {
+    errors_against(rows, from_s, |_| truth_deg)
+}
+
+/// Absolute wrapped error of each estimate after `from_s` against the truth `truth_deg(t_s)`.
+#[must_use]
+pub fn errors_against(
+    rows: &[CsvEstimate],
+    from_s: f64,
+    truth_deg: impl Fn(f64) -> f64,
+) -> Vec<f64> {
     rows.iter()
         .filter(|r| r.t_s >= from_s)
-        .map(|r| wrap180(r.azimuth_deg - truth_deg).abs())
+        .map(|r| wrap180(r.azimuth_deg - truth_deg(r.t_s)).abs())
         .collect()
 }
 

@@ -4,8 +4,7 @@
 //! with the default settings and with one stage changed. Thresholds are the values
 //! measured when the tests were written, with margin.
 
-use cma_tests::{config_file, errors_after, locate, make_scene};
-use host_sim::io::ground_truth::wrap180;
+use cma_tests::{config_file, errors_after, errors_against, locate, make_scene};
 use host_sim::localization::frame_estimates::CsvEstimate;
 use std::path::{Path, PathBuf};
 
@@ -163,11 +162,7 @@ fn mae_on_places(rows: &[CsvEstimate], from_s: f64) -> f64 {
             .find(|(at, _)| t >= *at)
             .map_or(PLACES[0].1, |p| p.1)
     };
-    let errs: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.t_s >= from_s)
-        .map(|r| wrap180(r.azimuth_deg - truth(r.t_s)).abs())
-        .collect();
+    let errs = errors_against(rows, from_s, truth);
     errs.iter().sum::<f64>() / errs.len() as f64
 }
 

@@ -863,7 +863,7 @@ pub struct CapsuleCalibrationState {
     /// The factor of the omni parts' correction the talker's frames support.
     omni_scale: f32,
     /// The shift of the features' plane vector the talker's frames ask for beyond the scaled
-    /// omni correction ([`SpeechCheck::residual_shift`]), added to every band's correction.
+    /// omni correction (the second part of [`SpeechCheck::verdict`]), added to every band's correction.
     omni_extra: (f32, f32),
     speech: SpeechCheck,
     /// Speech frames the check has taken.
@@ -999,7 +999,8 @@ impl CapsuleCalibrationState {
             self.settings.max_omni_spread,
             self.omni_scale,
         );
-        // The talker's further shift, the same in every band.
+        // The talker's further shift, the same in every band (a zero-mean c0 of plane coordinates
+        // z moves the features' plane vector by 1.5·z).
         let extra = from_plane([self.omni_extra.0 / 1.5, self.omni_extra.1 / 1.5]);
         for c in &mut self.correction {
             for (c0, e) in c.c0.iter_mut().zip(extra) {
