@@ -154,9 +154,11 @@ fn stored_capsules(out: &Path) {
     writeln!(
         code,
         "/// The estimate the self-calibration starts from ({}).\n\
-         pub const STORED: CapsuleEstimate = CapsuleEstimate {{\n    bands: [\n        {},\n    ],\n    held: false,\n}};",
+         pub const STORED: CapsuleEstimate = CapsuleEstimate {{\n    bands: [\n        {},\n    ],\n    held: false,\n    talker_shift: [{:?}, {:?}],\n}};",
         source.as_deref().map_or("the ideal capsule: CMA_SELFCAL was not set".to_string(), |s| format!("from `{s}`")),
-        bands.join(",\n        ")
+        bands.join(",\n        "),
+        est.talker_shift[0],
+        est.talker_shift[1]
     )
     .unwrap();
     writeln!(

@@ -242,13 +242,15 @@ pub struct SavePolicy {
     last_save: Option<u64>,
 }
 
-/// A CRC-32 of an estimate's models (the counts of peaks left out: they grow with every frame).
+/// A CRC-32 of an estimate's models and the talker's shift (the counts of peaks left out: they
+/// grow with every frame).
 fn models_digest(estimate: &CapsuleEstimate) -> u32 {
-    let mut bytes = [0u8; 4 * 6 * cma_core::capsule_calibration::CAL_BANDS];
+    let mut bytes = [0u8; 4 * (6 * cma_core::capsule_calibration::CAL_BANDS + 2)];
     let values = estimate
         .bands
         .iter()
-        .flat_map(|b| b.omni_part.iter().chain(&b.dipole_part));
+        .flat_map(|b| b.omni_part.iter().chain(&b.dipole_part))
+        .chain(&estimate.talker_shift);
     for (slot, v) in bytes.chunks_exact_mut(4).zip(values) {
         slot.copy_from_slice(&v.to_le_bytes());
     }
@@ -267,10 +269,14 @@ impl SavePolicy {
     }
 
     /// Whether `estimate` (confidence `confidence`, snapshot at `centre_sample`) should be saved now;
-    /// when it says yes it counts the save.
+    /// when it says yes it counts the save. An estimate whose background confidence is low is
+    /// still worth saving with a talker's shift: a noise source from power-on holds the
+    /// background's estimate, and the shift ([`CapsuleEstimate::talker_shift`], on which four of
+    /// the talker's places had to agree) is then the whole correction.
     pub fn due(&mut self, estimate: &CapsuleEstimate, confidence: f32, centre_sample: u64) -> bool {
         // `!(≥)` also refuses a NaN confidence.
-        if !(confidence >= SAVE_CONFIDENCE) {
+        let shifted = estimate.talker_shift.iter().any(|v| v.abs() > 0.0);
+        if !(confidence >= SAVE_CONFIDENCE) && !shifted {
             return false;
         }
         let period = u64::from(SAVE_PERIOD_S) * u64::from(self.sample_rate_hz);
@@ -591,5 +597,12 @@ mod tests {
         let mut peaks_only = estimate(0.03);
         peaks_only.bands[0].peaks += 100.0;
         assert!(!p.due(&peaks_only, 0.6, s(200)), "only the counts changed");
+        // Beside a source from power-on: nothing learned from the background, a talker's shift.
+        let mut shifted = estimate(0.03);
+        shifted.talker_shift = [0.08, -0.03];
+        assert!(p.due(&shifted, 0.01, s(300)), "a talker's shift");
+        shifted.talker_shift[1] = -0.02;
+        assert!(!p.due(&shifted, 0.01, s(310)), "within the period");
+        assert!(p.due(&shifted, 0.01, s(400)), "the shift changed");
     }
 }

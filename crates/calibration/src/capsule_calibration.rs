@@ -266,14 +266,35 @@ pub struct CapsuleEstimate {
     pub bands: [BandModel; CAL_BANDS],
     /// Whether the last background check found the field anisotropic (estimate held).
     pub held: bool,
+    /// The talker's shift: what the talker's frames asked for beyond the bands' omni parts, as a
+    /// shift (x, y) of the features' plane vector, added to every band's correction (see
+    /// [`crate::speech_check`]). It is measured over the places the talker was heard from, so it
+    /// is saved with the bands: a board restarted beside a noise source that holds the background's
+    /// estimate then starts corrected instead of waiting for the talker to be heard from four
+    /// places again.
+    pub talker_shift: [f32; 2],
 }
+
+/// Largest component of a plausible [`CapsuleEstimate::talker_shift`] (plane-vector units): the
+/// omni parts of a plausible cardioid ([`BandModel::is_plausible`]) shift the plane vector by
+/// well under this.
+pub const MAX_TALKER_SHIFT: f32 = 0.5;
 
 impl CapsuleEstimate {
     /// Ideal capsules, no evidence.
     pub const IDEAL: Self = Self {
         bands: [BandModel::IDEAL; CAL_BANDS],
         held: false,
+        talker_shift: [0.0; 2],
     };
+
+    /// Whether the talker's shift is plausible (finite, each component within ±[`MAX_TALKER_SHIFT`]).
+    #[must_use]
+    pub fn talker_shift_is_plausible(&self) -> bool {
+        self.talker_shift
+            .iter()
+            .all(|v| v.abs() <= MAX_TALKER_SHIFT)
+    }
 
     /// The confidence n/(n + [`CONFIDENT_PEAKS`]) of band `band`, from its count n of background
     /// peaks: ½ where the omni parts' sampling error is about 0.01.
@@ -862,9 +883,6 @@ pub struct CapsuleCalibrationState {
     omni_shift: (f32, f32),
     /// The factor of the omni parts' correction the talker's frames support.
     omni_scale: f32,
-    /// The shift of the features' plane vector the talker's frames ask for beyond the scaled
-    /// omni correction (the second part of [`SpeechCheck::verdict`]), added to every band's correction.
-    omni_extra: (f32, f32),
     speech: SpeechCheck,
     /// Speech frames the check has taken.
     speech_frames: u32,
@@ -923,7 +941,6 @@ impl CapsuleCalibrationState {
             correction: [Correction::IDENTITY; CAL_BANDS],
             omni_shift: (0.0, 0.0),
             omni_scale: 1.0,
-            omni_extra: (0.0, 0.0),
             speech: SpeechCheck::new(),
             speech_frames: 0,
             forget: 1.0,
@@ -978,7 +995,11 @@ impl CapsuleCalibrationState {
             self.sums[band] = BandSums::of_model(&self.accepted.bands[band]);
         }
         self.omni_scale = 1.0;
-        self.omni_extra = (0.0, 0.0);
+        // The talker's shift is restored with the bands (the estimate's own, not the background's
+        // model: nothing rebuilds it but the talker).
+        if start.talker_shift_is_plausible() {
+            self.accepted.talker_shift = start.talker_shift;
+        }
         self.speech.clear();
         self.speech_frames = 0;
         self.update_corrections();
@@ -1001,7 +1022,8 @@ impl CapsuleCalibrationState {
         );
         // The talker's further shift, the same in every band (a zero-mean c0 of plane coordinates
         // z moves the features' plane vector by 1.5·z).
-        let extra = from_plane([self.omni_extra.0 / 1.5, self.omni_extra.1 / 1.5]);
+        let [ex, ey] = self.accepted.talker_shift;
+        let extra = from_plane([ex / 1.5, ey / 1.5]);
         for c in &mut self.correction {
             for (c0, e) in c.c0.iter_mut().zip(extra) {
                 *c0 += e;
@@ -1016,9 +1038,10 @@ impl CapsuleCalibrationState {
         if self.settings.speech_check {
             let (vx, vy) = plane_vector(y);
             let k = self.omni_scale;
+            let [ex, ey] = self.accepted.talker_shift;
             self.speech.add_peak((
-                vx - k * self.omni_shift.0 - self.omni_extra.0,
-                vy - k * self.omni_shift.1 - self.omni_extra.1,
+                vx - k * self.omni_shift.0 - ex,
+                vy - k * self.omni_shift.1 - ey,
             ));
         }
     }
@@ -1050,11 +1073,15 @@ impl CapsuleCalibrationState {
         if !self.speech_frames.is_multiple_of(CHECK_FRAMES) {
             return;
         }
-        let (scale, extra) = self.speech.verdict(self.omni_shift);
-        let moved = (extra.0 - self.omni_extra.0).abs() + (extra.1 - self.omni_extra.1).abs();
+        let (scale, shift) = self.speech.verdict(self.omni_shift);
+        // Too few places heard to judge the shift: the one applied (a restored one, or what
+        // more places asked for before) stays.
+        let [ex, ey] = self.accepted.talker_shift;
+        let shift = shift.map_or([ex, ey], |(x, y)| [x, y]);
+        let moved = (shift[0] - ex).abs() + (shift[1] - ey).abs();
         if (scale - self.omni_scale).abs() > 0.01 || moved > 0.002 {
             self.omni_scale = scale;
-            self.omni_extra = extra;
+            self.accepted.talker_shift = shift;
             self.update_corrections();
         }
     }
@@ -1754,7 +1781,45 @@ mod tests {
         // Nonsense is not restored.
         let mut bad = saved;
         bad.bands[2].omni_part[0] = f32::NAN;
+        bad.talker_shift = [f32::NAN, 0.0];
         st.restore(&bad);
         assert_eq!(st.estimate().bands[2], BandModel::IDEAL);
+        assert_eq!(st.estimate().talker_shift, [0.0; 2]);
+    }
+
+    #[test]
+    fn a_saved_talkers_shift_is_applied_and_kept_until_the_talker_is_judged_again() {
+        // Beside a source from power-on the background learned nothing; the talker's shift is the
+        // whole correction, and a restart starts with it.
+        let mut st = fresh();
+        let mut saved = CapsuleEstimate::IDEAL;
+        saved.talker_shift = [0.09, -0.03];
+        st.restore(&saved);
+        assert_eq!(st.estimate().talker_shift, saved.talker_shift);
+        // Every band's c0 moves the features' plane vector by the shift (an ideal cardioid's
+        // feature is its value over the omni's, here c0 added to each).
+        let w = Complex32::new(1.0, 0.0);
+        for k in [10, 40, 100, 200] {
+            let y = st
+                .correct(k, w, [Complex32::new(0.0, 0.0); 3])
+                .map(|v| v.re);
+            let (vx, vy) = plane_vector(y);
+            assert!(
+                (vx - 0.09).abs() < 1e-5 && (vy + 0.03).abs() < 1e-5,
+                "bin {k}: {vx} {vy}"
+            );
+        }
+        // A talker heard from one place gives no verdict on the shift: it stays.
+        for i in 0..400 {
+            st.begin_frame(&[1.0 + (i % 3) as f32; NUM_BINS], 5, 250, true);
+            st.speech_peak([0.5; 3]);
+            st.end_speech_frame(Some(30.0), true);
+        }
+        assert!(
+            st.speech_frames >= 2 * CHECK_FRAMES,
+            "{} frames",
+            st.speech_frames
+        );
+        assert_eq!(st.estimate().talker_shift, saved.talker_shift);
     }
 }

@@ -184,12 +184,12 @@ impl SpeechCheck {
     ///
     /// d: the least-squares vector with c_k + (κ·s + d)·n_k ≈ 0 over the sectors k (n_k a
     /// sector's mean across-track direction, each weighing in full from 100 speech frames on),
-    /// with a ridge of 0.1 sectors toward 0; none unless four sectors' worth agree on it (rms
-    /// offset left at most 0.05), and shrunk by the room's offsets (0.04, positive-part
-    /// James–Stein).
+    /// with a ridge of 0.1 sectors toward 0, shrunk by the room's offsets (0.04, positive-part
+    /// James–Stein); `None` (no verdict: the shift applied stays) before four sectors' worth
+    /// are heard, and 0 unless they agree on it (rms offset left at most 0.05).
     #[inline(never)]
     #[must_use]
-    pub fn verdict(&self, shift: (f32, f32)) -> (f32, (f32, f32)) {
+    pub fn verdict(&self, shift: (f32, f32)) -> (f32, Option<(f32, f32)>) {
         let mut num = 0.0f32;
         let mut den = 0.0f32;
         let mut frames = 0.0f32;
@@ -250,15 +250,14 @@ impl SpeechCheck {
             + d.1 * (axy * d.0 + ayy * d.1);
         let sq = d.0 * d.0 + d.1 * d.1;
         // Two sectors fit any shift exactly, three nearly: the check needs a fourth.
-        if !(weight >= MIN_SECTORS)
-            || !(misfit <= MAX_MISFIT * MAX_MISFIT * weight)
-            || !(sq > 0.0)
-            || !sq.is_finite()
-        {
-            return (kappa, (0.0, 0.0));
+        if !(weight >= MIN_SECTORS) {
+            return (kappa, None);
+        }
+        if !(misfit <= MAX_MISFIT * MAX_MISFIT * weight) || !(sq > 0.0) || !sq.is_finite() {
+            return (kappa, Some((0.0, 0.0)));
         }
         let f = (1.0 - RESIDUAL_NOISE * RESIDUAL_NOISE / sq).max(0.0);
-        (kappa, (f * d.0, f * d.1))
+        (kappa, Some((f * d.0, f * d.1)))
     }
 }
 
@@ -377,7 +376,7 @@ mod tests {
         for deg in places {
             feed(&mut check, deg, e, e, 300, &mut rng);
         }
-        let d = check.verdict((0.0, 0.0)).1;
+        let d = check.verdict((0.0, 0.0)).1.unwrap();
         // Six places 60° apart weigh 3 in every direction, 3 + ridge with it: the fit is g·e,
         // then shrunk by the room's share.
         let g = 3.0 / (3.0 + RIDGE);
@@ -389,7 +388,7 @@ mod tests {
         );
         // Once the background's correction is in, nothing is left to add.
         let d = check.verdict((-e.0, -e.1)).1;
-        assert_eq!(d, (0.0, 0.0));
+        assert_eq!(d, Some((0.0, 0.0)));
     }
 
     #[test]
@@ -399,7 +398,7 @@ mod tests {
         for deg in [-150.0, -90.0, -30.0, 30.0, 90.0, 150.0] {
             feed(&mut ideal, deg, (0.0, 0.0), (0.0, 0.0), 300, &mut rng);
         }
-        assert_eq!(ideal.verdict((0.0, 0.0)).1, (0.0, 0.0));
+        assert_eq!(ideal.verdict((0.0, 0.0)).1, Some((0.0, 0.0)));
         // Offsets as a second voice heard at the same time leaves them, which no one shift fits:
         // opposite places offset the same way.
         let mut two = SpeechCheck::new();
@@ -411,13 +410,14 @@ mod tests {
         ] {
             feed(&mut two, deg, centre, centre, 300, &mut rng);
         }
-        assert_eq!(two.verdict((0.0, 0.0)).1, (0.0, 0.0));
-        // Three places fit nearly any shift (a room's offsets too): nothing to check it by.
+        assert_eq!(two.verdict((0.0, 0.0)).1, Some((0.0, 0.0)));
+        // Three places fit nearly any shift (a room's offsets too): nothing to check it by, and
+        // no verdict (the shift applied stays).
         let mut three = SpeechCheck::new();
         for deg in [-150.0, -30.0, 90.0] {
             feed(&mut three, deg, (0.15, 0.1), (0.15, 0.1), 300, &mut rng);
         }
-        assert_eq!(three.verdict((0.0, 0.0)).1, (0.0, 0.0));
+        assert_eq!(three.verdict((0.0, 0.0)).1, None);
     }
 
     #[test]

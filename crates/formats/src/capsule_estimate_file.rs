@@ -3,10 +3,11 @@
 //! without allocation, so the host tools and the firmware build read the format with the same rules.
 //!
 //! ```text
-//! # cma self-calibration v1
+//! # cma self-calibration v2
 //! band,f_lo_hz,f_hi_hz,peaks,a0,a1,a2,b0,b1,b2
 //! 0,0,500,5321.4,0.4812,0.5304,0.4950,0.5110,0.4620,0.5391
 //! …
+//! talker_shift,0.0841,-0.0310
 //! ```
 //!
 //! One row per band (edges [`CAL_BAND_EDGES_HZ`](crate::capsule_calibration::CAL_BAND_EDGES_HZ);
@@ -14,13 +15,20 @@
 //! cardioid's omni part a_m and dipole part b_m (X_m = a_m·W + b_m·D_m; the ideal cardioid has
 //! a = b = 0.5). Every band must appear once; blank lines are ignored, a UTF-8 byte-order mark is
 //! allowed; the frequency columns are informative and not checked. Every band must be a plausible
-//! cardioid ([`BandModel::is_plausible`]). `held` is not stored (a restored estimate is not held).
+//! cardioid ([`BandModel::is_plausible`]). The optional `talker_shift` row holds
+//! [`CapsuleEstimate::talker_shift`] (each component within ±[`MAX_TALKER_SHIFT`]; 0 without the
+//! row). Files of version 1 (without that row) are read as before. `held` is not stored (a restored
+//! estimate is not held).
 
-use crate::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS};
+use crate::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS, MAX_TALKER_SHIFT};
 use core::fmt;
 
 /// First line of the file.
-pub const MAGIC: &str = "# cma self-calibration v1";
+pub const MAGIC: &str = "# cma self-calibration v2";
+/// First line of the files of version 1 (no talker's shift), still read.
+pub const MAGIC_V1: &str = "# cma self-calibration v1";
+/// First field of the row of the talker's shift (`talker_shift,x,y`).
+pub const SHIFT_ROW: &str = "talker_shift";
 /// Column header (second line).
 pub const HEADER: &str = "band,f_lo_hz,f_hi_hz,peaks,a0,a1,a2,b0,b1,b2";
 /// Fields of a band row.
@@ -60,6 +68,10 @@ pub enum ParseErrorKind<'a> {
         /// The band.
         band: usize,
     },
+    /// The `talker_shift` row is not `talker_shift,x,y` with plausible numbers.
+    BadShift,
+    /// The `talker_shift` row given twice.
+    DuplicateShift,
 }
 
 /// A file that does not parse: where and why.
@@ -91,6 +103,11 @@ impl fmt::Display for ParseErrorKind<'_> {
                 f.write_str("not a plausible cardioid (need 0.3 < a, b < 0.75 and peaks ≥ 0)")
             }
             ParseErrorKind::MissingBand { band } => write!(f, "band {band} is missing"),
+            ParseErrorKind::BadShift => write!(
+                f,
+                "expected `{SHIFT_ROW},x,y` with finite x and y within ±{MAX_TALKER_SHIFT}"
+            ),
+            ParseErrorKind::DuplicateShift => write!(f, "`{SHIFT_ROW}` is given twice"),
         }
     }
 }
@@ -112,7 +129,10 @@ pub fn parse(text: &str) -> Result<CapsuleEstimate, ParseError<'_>> {
     let err = |line: usize, kind| ParseError { line, kind };
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines().enumerate();
-    if lines.next().is_none_or(|(_, l)| l.trim() != MAGIC) {
+    if lines
+        .next()
+        .is_none_or(|(_, l)| l.trim() != MAGIC && l.trim() != MAGIC_V1)
+    {
         return Err(err(1, ParseErrorKind::NotASelfCalibrationFile));
     }
     if lines.next().is_none_or(|(_, l)| l.trim() != HEADER) {
@@ -120,9 +140,18 @@ pub fn parse(text: &str) -> Result<CapsuleEstimate, ParseError<'_>> {
     }
     let mut est = CapsuleEstimate::IDEAL;
     let mut seen = [false; CAL_BANDS];
+    let mut shift_seen = false;
     for (i, line) in lines {
         let n = i + 1;
         if line.trim().is_empty() {
+            continue;
+        }
+        if line.split(',').next().map(str::trim) == Some(SHIFT_ROW) {
+            if shift_seen {
+                return Err(err(n, ParseErrorKind::DuplicateShift));
+            }
+            est.talker_shift = parse_shift(line).ok_or(err(n, ParseErrorKind::BadShift))?;
+            shift_seen = true;
             continue;
         }
         let mut f = [""; ROW_FIELDS];
@@ -169,6 +198,21 @@ pub fn parse(text: &str) -> Result<CapsuleEstimate, ParseError<'_>> {
     Ok(est)
 }
 
+/// The talker's shift of a `talker_shift,x,y` row, `None` unless it has three fields and a
+/// plausible shift.
+fn parse_shift(line: &str) -> Option<[f32; 2]> {
+    let mut f = line
+        .split(',')
+        .skip(1)
+        .map(|t| t.trim().parse::<f32>().ok());
+    let shift = [f.next()??, f.next()??];
+    let est = CapsuleEstimate {
+        talker_shift: shift,
+        ..CapsuleEstimate::IDEAL
+    };
+    (f.next().is_none() && est.talker_shift_is_plausible()).then_some(shift)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -190,8 +234,27 @@ mod tests {
         assert_eq!(est.bands[1], BandModel::IDEAL);
         assert_eq!(est.bands[3].peaks, 10.0);
         assert!(!est.held);
+        assert_eq!(est.talker_shift, [0.0; 2]);
         let with_bom = "\u{feff}".to_owned() + GOOD;
         assert_eq!(parse(&with_bom), Ok(est));
+    }
+
+    #[test]
+    fn version_2_adds_the_talkers_shift() {
+        let v2 = GOOD.replacen("v1", "v2", 1) + "talker_shift,0.0841,-0.031\n";
+        let est = parse(&v2).unwrap();
+        assert_eq!(est.talker_shift, [0.0841, -0.031]);
+        assert_eq!(est.bands, parse(GOOD).unwrap().bands);
+        let e = |row: &str| error(&(GOOD.replacen("v1", "v2", 1) + row));
+        let bad = "line 8: expected `talker_shift,x,y` with finite x and y within ±0.5";
+        assert_eq!(e("talker_shift,0.6,0\n"), bad);
+        assert_eq!(e("talker_shift,NaN,0\n"), bad);
+        assert_eq!(e("talker_shift,0.1\n"), bad);
+        assert_eq!(e("talker_shift,0.1,0,0\n"), bad);
+        assert_eq!(
+            e("talker_shift,0,0\ntalker_shift,0,0\n"),
+            "line 9: `talker_shift` is given twice"
+        );
     }
 
     extern crate std;

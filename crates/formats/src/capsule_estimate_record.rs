@@ -11,10 +11,13 @@
 //! | 8–11    | sequence number, u32 (the newest record has the highest)                    |
 //! | 12–15   | key, u32: [`key_of`] the estimate the board was built to start from          |
 //! | 16–127  | per band (lowest first): a0 a1 a2 b0 b1 b2 peaks, f32 each                  |
-//! | 128–131 | CRC-32 (IEEE 802.3, as zlib's `crc32`) of bytes 0–127                       |
-//! | 132–143 | zero                                                                        |
+//! | 128–135 | the talker's shift x, y ([`CapsuleEstimate::talker_shift`]), f32 each        |
+//! | 136–139 | CRC-32 (IEEE 802.3, as zlib's `crc32`) of bytes 0–135                       |
+//! | 140–143 | zero                                                                        |
 //!
-//! All numbers little-endian. `held` is not stored (a restored estimate is not held). A record
+//! All numbers little-endian. Records of version 1 (no talker's shift: the CRC at 128–131 covers
+//! bytes 0–127) are still read, with a shift of 0. `held` is not stored (a restored estimate is
+//! not held). A record
 //! whose bytes are all `0xFF` is erased flash ([`RecordError::Erased`]); any other record that fails
 //! a check was torn by a power cut or is not a record, and is skipped.
 
@@ -31,13 +34,17 @@ pub const RECORD_LEN: usize = 144;
 /// First four bytes of a record.
 pub const MAGIC: [u8; 4] = *b"CMAS";
 /// Format version.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
+/// The version before the talker's shift was stored, still read.
+pub const VERSION_1: u16 = 1;
 /// Offset of the per-band values.
 const VALUES_AT: usize = 16;
 /// Values per band: three omni parts, three dipole parts, the count of peaks.
 const BAND_VALUES: usize = 2 * CARDIOIDS + 1;
+/// Offset of the talker's shift (and of a version 1 record's CRC).
+const SHIFT_AT: usize = VALUES_AT + 4 * BAND_VALUES * CAL_BANDS;
 /// Offset of the CRC (the end of the checked bytes).
-const CRC_AT: usize = VALUES_AT + 4 * BAND_VALUES * CAL_BANDS;
+const CRC_AT: usize = SHIFT_AT + 8;
 
 const _: () = assert!(CRC_AT + 4 <= RECORD_LEN && RECORD_LEN.is_multiple_of(16));
 
@@ -62,7 +69,8 @@ pub enum RecordError {
     NotARecord,
     /// The CRC does not match: the write was cut short or the bytes were damaged.
     Checksum,
-    /// The values are not a plausible capsule model ([`BandModel::is_plausible`]).
+    /// The values are not a plausible capsule model ([`BandModel::is_plausible`],
+    /// [`CapsuleEstimate::talker_shift_is_plausible`]).
     Implausible,
 }
 
@@ -90,7 +98,8 @@ fn values(estimate: &CapsuleEstimate) -> impl Iterator<Item = f32> + '_ {
     })
 }
 
-/// The key of a build's starting estimate: the CRC-32 of its values (counts of peaks included). A
+/// The key of a build's starting estimate: the CRC-32 of its bands' values (counts of peaks
+/// included; not the talker's shift, so that stores written before it was saved keep theirs). A
 /// store keeps records only for the starting estimate they were learned from, so building the
 /// firmware with another one (`CMA_SELFCAL`) starts afresh from it.
 #[must_use]
@@ -107,12 +116,14 @@ pub fn encode(estimate: &CapsuleEstimate, sequence: u32, key: u32) -> [u8; RECOR
     r[6..8].copy_from_slice(&(RECORD_LEN as u16).to_le_bytes());
     r[8..12].copy_from_slice(&sequence.to_le_bytes());
     r[12..16].copy_from_slice(&key.to_le_bytes());
-    for (slot, v) in r[VALUES_AT..CRC_AT]
+    for (slot, v) in r[VALUES_AT..SHIFT_AT]
         .chunks_exact_mut(4)
         .zip(values(estimate))
     {
         slot.copy_from_slice(&v.to_le_bytes());
     }
+    r[SHIFT_AT..SHIFT_AT + 4].copy_from_slice(&estimate.talker_shift[0].to_le_bytes());
+    r[SHIFT_AT + 4..CRC_AT].copy_from_slice(&estimate.talker_shift[1].to_le_bytes());
     let crc = crc32(&r[..CRC_AT]);
     r[CRC_AT..CRC_AT + 4].copy_from_slice(&crc.to_le_bytes());
     r
@@ -131,16 +142,26 @@ pub fn decode(bytes: &[u8; RECORD_LEN]) -> Result<Record, RecordError> {
     if bytes.iter().all(|&b| b == 0xFF) {
         return Err(RecordError::Erased);
     }
-    if bytes[0..4] != MAGIC
-        || bytes[4..6] != VERSION.to_le_bytes()
-        || bytes[6..8] != (RECORD_LEN as u16).to_le_bytes()
-    {
+    let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+    let crc_at = match version {
+        VERSION => CRC_AT,
+        VERSION_1 => SHIFT_AT,
+        _ => return Err(RecordError::NotARecord),
+    };
+    if bytes[0..4] != MAGIC || bytes[6..8] != (RECORD_LEN as u16).to_le_bytes() {
         return Err(RecordError::NotARecord);
     }
-    if crc32(&bytes[..CRC_AT]) != u32_at(bytes, CRC_AT) {
+    if crc32(&bytes[..crc_at]) != u32_at(bytes, crc_at) {
         return Err(RecordError::Checksum);
     }
     let mut estimate = CapsuleEstimate::IDEAL;
+    if version == VERSION {
+        let v = |i: usize| f32::from_bits(u32_at(bytes, SHIFT_AT + 4 * i));
+        estimate.talker_shift = [v(0), v(1)];
+        if !estimate.talker_shift_is_plausible() {
+            return Err(RecordError::Implausible);
+        }
+    }
     for (band, model) in estimate.bands.iter_mut().enumerate() {
         let at = VALUES_AT + 4 * BAND_VALUES * band;
         let v = |i: usize| f32::from_bits(u32_at(bytes, at + 4 * i));
@@ -171,6 +192,7 @@ mod tests {
             b.dipole_part = [0.511, 0.462, 0.539_123_4];
             b.peaks = 5321.4 + i as f32;
         }
+        e.talker_shift = [0.084_1, -0.031];
         e
     }
 
@@ -219,6 +241,26 @@ mod tests {
         let mut e = learned();
         e.bands[0].omni_part[0] = 0.9;
         assert_eq!(decode(&encode(&e, 0, 0)), Err(RecordError::Implausible));
+        let mut e = learned();
+        e.talker_shift[1] = 0.6;
+        assert_eq!(decode(&encode(&e, 0, 0)), Err(RecordError::Implausible));
+    }
+
+    #[test]
+    fn a_version_1_record_reads_with_no_talkers_shift() {
+        // As the firmware wrote it before the shift was stored: the CRC right after the bands.
+        let mut r = encode(&learned(), 5, 11);
+        r[4..6].copy_from_slice(&VERSION_1.to_le_bytes());
+        let crc = crc32(&r[..SHIFT_AT]);
+        r[SHIFT_AT..SHIFT_AT + 4].copy_from_slice(&crc.to_le_bytes());
+        r[SHIFT_AT + 4..].fill(0);
+        let got = decode(&r).unwrap();
+        assert_eq!((got.sequence, got.key), (5, 11));
+        assert_eq!(got.estimate.bands, learned().bands);
+        assert_eq!(got.estimate.talker_shift, [0.0; 2]);
+        // Its CRC at the version 2 place is not a version 2 record.
+        r[4..6].copy_from_slice(&VERSION.to_le_bytes());
+        assert_eq!(decode(&r), Err(RecordError::Checksum));
     }
 
     #[test]
@@ -228,5 +270,9 @@ mod tests {
         let mut e = learned();
         e.bands[3].peaks += 1.0;
         assert_ne!(key_of(&e), key_of(&learned()));
+        // The talker's shift is not part of the key.
+        let mut e = learned();
+        e.talker_shift = [0.0; 2];
+        assert_eq!(key_of(&e), key_of(&learned()));
     }
 }

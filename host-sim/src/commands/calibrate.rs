@@ -423,6 +423,11 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
             "note: the estimate rests on few background peaks in some band (confidence {confidence:.2} < 0.5); the table applies its deviations from the ideal capsule in full, where the running self-calibration applies only what clears their sampling error: a longer recording gives a firmer estimate"
         );
     }
+    if est.talker_shift != [0.0; 2] {
+        eprintln!(
+            "note: the estimate's talker's shift (what the talker's places added to the omni parts' correction beside a noise source) is not part of a table: the table holds the bands' models only; started from the estimate instead (`locate --selfcal-in`), the localizer applies it"
+        );
+    }
     report_table(
         a,
         &table,

@@ -2,15 +2,18 @@
 //! one-paragraph summary for the terminal.
 //!
 //! ```text
-//! # cma self-calibration v1
+//! # cma self-calibration v2
 //! band,f_lo_hz,f_hi_hz,peaks,a0,a1,a2,b0,b1,b2
 //! 0,0,500,5321.4,0.4812,0.5304,0.4950,0.5110,0.4620,0.5391
 //! …
+//! talker_shift,0.084100,-0.031000
 //! ```
 //!
 //! One row per band (edges [`CAL_BAND_EDGES_HZ`]; the last band runs to Nyquist, written as 0):
 //! the background peaks behind the estimate, then each cardioid's omni part a_m and dipole part b_m
-//! (X_m = a_m·W + b_m·D_m; the ideal cardioid has a = b = 0.5; gain g = a + b, pattern β = b/g).
+//! (X_m = a_m·W + b_m·D_m; the ideal cardioid has a = b = 0.5; gain g = a + b, pattern β = b/g);
+//! then the talker's shift of the omni parts' correction
+//! ([`CapsuleEstimate::talker_shift`]). Version 1 files (without it) are read too.
 //!
 //! The parser is the core's [`cma_core::capsule_estimate_file`], which the firmware's build script
 //! uses too (`CMA_SELFCAL=path`), so both read the file with the same rules. [`read()`] also takes
@@ -49,6 +52,8 @@ pub fn format(est: &CapsuleEstimate) -> String {
         }
         s.push('\n');
     }
+    let [x, y] = est.talker_shift;
+    let _ = writeln!(s, "{},{x:.6},{y:.6}", capsule_estimate_file::SHIFT_ROW);
     s
 }
 
@@ -183,6 +188,14 @@ pub fn summary(est: &CapsuleEstimate, confidence: f32) -> String {
             b.peaks
         );
     }
+    let [x, y] = est.talker_shift;
+    if x != 0.0 || y != 0.0 {
+        let _ = writeln!(
+            s,
+            "  the talker's places add a shift of ({x:+.3}, {y:+.3}) to the omni parts' correction \
+             (saved with the estimate)"
+        );
+    }
     let empty = est.bands.iter().filter(|b| !(b.peaks > 0.0)).count();
     if est.held && empty > 0 {
         let _ = writeln!(
@@ -252,8 +265,10 @@ mod tests {
         est.bands[2].omni_part = [0.45, 0.52, 0.5];
         est.bands[2].dipole_part = [0.55, 0.47, 0.51];
         est.bands[2].peaks = 1234.5;
+        est.talker_shift = [0.0841, -0.031];
         let p = Path::new("x.selfcal");
         let back = parse(&format(&est), p).unwrap();
+        assert_eq!(back.talker_shift, est.talker_shift);
         for (a, b) in back.bands.iter().zip(&est.bands) {
             for m in 0..3 {
                 assert!((a.omni_part[m] - b.omni_part[m]).abs() < 1e-6);

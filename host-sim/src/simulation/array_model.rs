@@ -87,7 +87,8 @@ impl ArrayModel {
         }
         Some(CapsuleEstimate {
             bands: [band; CAL_BANDS],
-            held: false,
+            // The bands hold the whole error: nothing for the talker to add.
+            ..CapsuleEstimate::IDEAL
         })
     }
 

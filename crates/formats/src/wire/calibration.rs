@@ -161,7 +161,8 @@ impl CalibrationLine {
     }
 
     /// The estimate the line describes (parts to 1/10000, peaks to 1), e.g. to start another
-    /// localizer from it (`Locator::set_capsule_estimate` of `cma-core`).
+    /// localizer from it (`Locator::set_capsule_estimate` of `cma-core`). The line does not carry
+    /// the talker's shift ([`CapsuleEstimate::talker_shift`]): it is 0 here.
     #[must_use]
     pub fn capsules(&self) -> CapsuleEstimate {
         let mut est = CapsuleEstimate {
