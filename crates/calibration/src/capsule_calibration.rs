@@ -95,11 +95,11 @@
 //! along a talker's direction only quiet frames teach — and each of its principal directions is
 //! shrunk with its own evidence. The reported confidence is n/(n + [`CONFIDENT_PEAKS`]).
 //!
-//! State: per band 15 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model and its
-//! counts) is what is saved and restored. Work per hop: six multiply–adds per cardioid and peak for
-//! the correction; on background frames ten cross-products per peak, and every 16th background
-//! frame the four bands' capsule noise (a 4×4 factorisation and three solves each), solutions and
-//! corrections; the speech check's per-peak and per-frame sums ([`crate::speech_check`]).
+//! State: per band 15 sums and a count (≈ 0.3 KB in all); [`CapsuleEstimate`] (the model, its
+//! counts and the talker's shift) is what is saved and restored. Work per hop: six multiply–adds
+//! per cardioid and peak for the correction; on background frames ten cross-products per peak, and
+//! every 16th background frame the four bands' capsule noise (a 4×4 factorisation and three solves
+//! each), solutions and corrections; the speech check's per-peak and per-frame sums ([`crate::speech_check`]).
 
 use crate::band_floors::BandFloors;
 use crate::bformat::plane_vector;

@@ -39,6 +39,8 @@
 //! offsets a room gives an ideal array. Measured (`scripts/validate`, full run, docs/history.md):
 //! broadband sources 6–22 dB below the talker through imperfect arrays, last 40 s, +10 to +22
 //! points of ACC10; one scene beside a fan reads worse, as it does from its own stored estimate.
+//! The shift is saved with the estimate (`CapsuleEstimate::talker_shift`): until four sectors are
+//! heard again the verdict gives none, and a restored shift stays applied.
 //!
 //! State: six sectors of eleven sums and a frame's three (≈ 0.3 KB). Work per hop: a plane vector
 //! and three additions per peak; per speech frame one sector update; every 16 speech frames a
