@@ -425,7 +425,7 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
     }
     if est.talker_shift != [0.0; 2] {
         eprintln!(
-            "note: the estimate's talker's shift (what the talker's places added to the omni parts' correction beside a noise source) is not part of a table: the table holds the bands' models only; started from the estimate instead (`locate --selfcal-in`), the localizer applies it"
+            "note: the table holds the bands' models only, not the estimate's talker shift (what the talker's places added to the omni parts' correction beside a noise source); started from the estimate instead (`locate --selfcal-in`), the localizer applies it"
         );
     }
     report_table(
