@@ -275,8 +275,7 @@ impl SavePolicy {
     /// the talker's places had to agree) is then the whole correction.
     pub fn due(&mut self, estimate: &CapsuleEstimate, confidence: f32, centre_sample: u64) -> bool {
         // `!(≥)` also refuses a NaN confidence.
-        let shifted = estimate.talker_shift.iter().any(|v| v.abs() > 0.0);
-        if !(confidence >= SAVE_CONFIDENCE) && !shifted {
+        if !(confidence >= SAVE_CONFIDENCE) && !estimate.has_talker_shift() {
             return false;
         }
         let period = u64::from(SAVE_PERIOD_S) * u64::from(self.sample_rate_hz);

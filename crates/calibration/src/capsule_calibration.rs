@@ -288,12 +288,17 @@ impl CapsuleEstimate {
         talker_shift: [0.0; 2],
     };
 
-    /// Whether the talker's shift is plausible (finite, each component within ±[`MAX_TALKER_SHIFT`]).
+    /// Whether `shift` is a plausible [`CapsuleEstimate::talker_shift`] (finite, each component
+    /// within ±[`MAX_TALKER_SHIFT`]).
     #[must_use]
-    pub fn talker_shift_is_plausible(&self) -> bool {
-        self.talker_shift
-            .iter()
-            .all(|v| v.abs() <= MAX_TALKER_SHIFT)
+    pub fn is_plausible_talker_shift(shift: [f32; 2]) -> bool {
+        shift.iter().all(|v| v.abs() <= MAX_TALKER_SHIFT)
+    }
+
+    /// Whether the talker's places added a shift (either component not 0).
+    #[must_use]
+    pub fn has_talker_shift(&self) -> bool {
+        self.talker_shift.iter().any(|v| v.abs() > 0.0)
     }
 
     /// The confidence n/(n + [`CONFIDENT_PEAKS`]) of band `band`, from its count n of background
@@ -997,7 +1002,7 @@ impl CapsuleCalibrationState {
         self.omni_scale = 1.0;
         // The talker's shift is restored with the bands (the estimate's own, not the background's
         // model: nothing rebuilds it but the talker).
-        if start.talker_shift_is_plausible() {
+        if CapsuleEstimate::is_plausible_talker_shift(start.talker_shift) {
             self.accepted.talker_shift = start.talker_shift;
         }
         self.speech.clear();

@@ -206,11 +206,7 @@ fn parse_shift(line: &str) -> Option<[f32; 2]> {
         .skip(1)
         .map(|t| t.trim().parse::<f32>().ok());
     let shift = [f.next()??, f.next()??];
-    let est = CapsuleEstimate {
-        talker_shift: shift,
-        ..CapsuleEstimate::IDEAL
-    };
-    (f.next().is_none() && est.talker_shift_is_plausible()).then_some(shift)
+    (f.next().is_none() && CapsuleEstimate::is_plausible_talker_shift(shift)).then_some(shift)
 }
 
 #[cfg(test)]

@@ -70,7 +70,7 @@ pub enum RecordError {
     /// The CRC does not match: the write was cut short or the bytes were damaged.
     Checksum,
     /// The values are not a plausible capsule model ([`BandModel::is_plausible`],
-    /// [`CapsuleEstimate::talker_shift_is_plausible`]).
+    /// [`CapsuleEstimate::is_plausible_talker_shift`]).
     Implausible,
 }
 
@@ -158,7 +158,7 @@ pub fn decode(bytes: &[u8; RECORD_LEN]) -> Result<Record, RecordError> {
     if version == VERSION {
         let v = |i: usize| f32::from_bits(u32_at(bytes, SHIFT_AT + 4 * i));
         estimate.talker_shift = [v(0), v(1)];
-        if !estimate.talker_shift_is_plausible() {
+        if !CapsuleEstimate::is_plausible_talker_shift(estimate.talker_shift) {
             return Err(RecordError::Implausible);
         }
     }

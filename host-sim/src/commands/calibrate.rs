@@ -423,7 +423,7 @@ fn run_from_estimate(a: &CalibrateArgs, path: &Path) -> Result<()> {
             "note: the estimate rests on few background peaks in some band (confidence {confidence:.2} < 0.5); the table applies its deviations from the ideal capsule in full, where the running self-calibration applies only what clears their sampling error: a longer recording gives a firmer estimate"
         );
     }
-    if est.talker_shift != [0.0; 2] {
+    if est.has_talker_shift() {
         eprintln!(
             "note: the table holds the bands' models only, not the estimate's talker shift (what the talker's places added to the omni parts' correction beside a noise source); started from the estimate instead (`locate --selfcal-in`), the localizer applies it"
         );

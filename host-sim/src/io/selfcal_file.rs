@@ -188,8 +188,8 @@ pub fn summary(est: &CapsuleEstimate, confidence: f32) -> String {
             b.peaks
         );
     }
-    let [x, y] = est.talker_shift;
-    if x != 0.0 || y != 0.0 {
+    if est.has_talker_shift() {
+        let [x, y] = est.talker_shift;
         let _ = writeln!(
             s,
             "  the talker's places add a shift of ({x:+.3}, {y:+.3}) to the omni parts' correction \
