@@ -77,8 +77,9 @@ pub use background::{
 };
 pub use calibration::{
     decode_calibration, decode_line, encode_calibration, part_to_wire, peaks_to_wire,
-    CalibrationBand, CalibrationLine, CalibrationSchedule, Line, BAND_FIELDS, CALIBRATION_FIELDS,
-    CALIBRATION_PERIOD_S, CALIBRATION_VERSION, MAX_ANY_LINE, MAX_CAL_LINE, PART_MAX, PART_SCALE,
+    shift_to_wire, CalibrationBand, CalibrationLine, CalibrationSchedule, Line, BAND_FIELDS,
+    CALIBRATION_FIELDS, CALIBRATION_FIELDS_V1, CALIBRATION_PERIOD_S, CALIBRATION_VERSION,
+    CALIBRATION_VERSION_1, MAX_ANY_LINE, MAX_CAL_LINE, PART_MAX, PART_SCALE, SHIFT_MAX,
 };
 pub use tracks::{
     decode_tracks, encode_tracks, TracksLine, WireTrack, MAX_TRK_LINE, TRACKS_VERSION,
@@ -419,6 +420,10 @@ pub enum Field {
         /// Cardioid, 0 = the one looking at 0°.
         cardioid: u8,
     },
+    /// `sx` (the talker's shift, x) of a calibration line.
+    ShiftX,
+    /// `sy` (the talker's shift, y) of a calibration line.
+    ShiftY,
     /// `n` (number of tracks) of a track line.
     TrackCount,
     /// `id` of a track line's track.
@@ -478,6 +483,8 @@ impl Field {
             Field::Peaks { .. } => "n",
             Field::OmniPart { .. } => "a",
             Field::DipolePart { .. } => "b",
+            Field::ShiftX => "sx",
+            Field::ShiftY => "sy",
             Field::TrackCount => "n",
             Field::TrackId { .. } => "id",
             Field::TrackAzimuth { .. } => "az",

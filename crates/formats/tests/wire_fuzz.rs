@@ -6,7 +6,7 @@
 use cma_formats::wire::{
     decode, decode_calibration, decode_line, encode, encode_calibration, CalibrationBand,
     CalibrationLine, DecodeError, Frame, Line, LineAssembler, MAX_ANY_LINE, MAX_CAL_LINE, MAX_LINE,
-    PART_MAX,
+    PART_MAX, SHIFT_MAX,
 };
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
@@ -174,15 +174,19 @@ fn any_calibration() -> impl Strategy<Value = CalibrationLine> {
         any::<bool>(),
         any::<u32>(),
         prop::array::uniform4(band),
+        prop::array::uniform2(-SHIFT_MAX..=SHIFT_MAX),
     )
-        .prop_map(|(seq, t, conf, held, drop, bands)| CalibrationLine {
-            seq,
-            centre_sample: t,
-            confidence_permille: conf,
-            held,
-            dropped: drop,
-            bands,
-        })
+        .prop_map(
+            |(seq, t, conf, held, drop, bands, talker_shift)| CalibrationLine {
+                seq,
+                centre_sample: t,
+                confidence_permille: conf,
+                held,
+                dropped: drop,
+                bands,
+                talker_shift,
+            },
+        )
 }
 
 fn encoded_calibration(c: &CalibrationLine) -> Vec<u8> {

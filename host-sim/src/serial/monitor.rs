@@ -317,9 +317,10 @@ pub fn calibration_means(c: &CalibrationLine) -> ([f64; CARDIOIDS], [f64; CARDIO
     (gain_db, beta)
 }
 
-/// The live view's line for a calibration line (at most 62 characters): confidence, each
-/// cardioid's gain (dB) and pattern β as means over the bands, and `held` when the estimate is held.
-/// E.g. `selfcal 0.83  gain +0.42 -0.80 +0.20 dB  β .470 .550 .500  held`.
+/// The live view's line for a calibration line (at most 74 characters): confidence, each
+/// cardioid's gain (dB) and pattern β as means over the bands, `held` when the estimate is held,
+/// and the size of the talker's shift when it has one (`CapsuleEstimate::talker_shift`, plane
+/// units). E.g. `selfcal 0.83  gain +0.42 -0.80 +0.20 dB  β .470 .550 .500  held  shift .09`.
 #[must_use]
 pub fn calibration_summary(c: &CalibrationLine) -> String {
     let (gain_db, beta) = calibration_means(c);
@@ -328,8 +329,16 @@ pub fn calibration_summary(c: &CalibrationLine) -> String {
         let s = format!("{:.3}", v.clamp(0.0, 9.999));
         s.strip_prefix('0').map(str::to_string).unwrap_or(s)
     };
+    let shift = if c.has_talker_shift() {
+        let [x, y] = c.capsules().talker_shift.map(f64::from);
+        // Within 0…0.71 (each component within ±0.5): ".09".
+        let s = format!("{:.2}", x.hypot(y).min(0.99));
+        format!("  shift {}", s.strip_prefix('0').unwrap_or(&s))
+    } else {
+        String::new()
+    };
     format!(
-        "selfcal {:.2}  gain {:+.2} {:+.2} {:+.2} dB  β {} {} {}{}",
+        "selfcal {:.2}  gain {:+.2} {:+.2} {:+.2} dB  β {} {} {}{}{shift}",
         c.confidence(),
         gain_db[0].clamp(-99.0, 99.0),
         gain_db[1].clamp(-99.0, 99.0),
@@ -364,12 +373,14 @@ pub fn tracks_plain_line(t: &TracksLine) -> String {
     s
 }
 
-/// The plain text of a calibration line: the estimate's mean gain and pattern per cardioid.
+/// The plain text of a calibration line: the estimate's mean gain and pattern per cardioid, the
+/// talker's shift, then each band's parts.
 pub fn calibration_plain_line(c: &CalibrationLine) -> String {
     let (gain_db, beta) = calibration_means(c);
+    let [sx, sy] = c.capsules().talker_shift;
     let mut s = format!(
         "selfcal seq={} t={} conf={:.3} held={} drop={} gain_db={:+.2},{:+.2},{:+.2} \
-         beta={:.3},{:.3},{:.3}",
+         beta={:.3},{:.3},{:.3} shift={sx:+.4},{sy:+.4}",
         c.seq,
         c.centre_sample,
         c.confidence(),
@@ -945,7 +956,8 @@ mod tests {
         buf[..].to_vec()
     }
 
-    /// A calibration line: band 1 of cardioid 0 is 1 dB hot with β 0.45, the rest ideal.
+    /// A calibration line: band 1 of cardioid 0 is 1 dB hot with β 0.45, the rest ideal; a held
+    /// one also carries a talker's shift.
     fn calibration(held: bool) -> CalibrationLine {
         use cma_core::capsule_calibration::CapsuleEstimate;
         let mut est = CapsuleEstimate::IDEAL;
@@ -956,6 +968,9 @@ mod tests {
             b.peaks = 1234.0;
         }
         est.held = held;
+        if held {
+            est.talker_shift = [0.084_1, -0.031];
+        }
         CalibrationLine::from_capsules(&est, 0.834, 2, 960_000, 0)
     }
 
@@ -991,12 +1006,14 @@ mod tests {
             summary,
             "selfcal 0.83  gain +0.25 +0.00 +0.00 dB  β .487 .500 .500"
         );
-        assert!(calibration_summary(&calibration(true)).ends_with(".500  held"));
+        let held = calibration_summary(&calibration(true));
+        assert!(held.ends_with(".500  held  shift .09"), "{held}");
+        assert!(held.chars().count() <= 74);
         let plain = calibration_plain_line(&calibration(true));
         assert!(
             plain.starts_with(
                 "selfcal seq=2 t=960000 conf=0.834 held=1 drop=0 gain_db=+0.25,+0.00,+0.00 \
-                 beta=0.487,0.500,0.500 band0=n:1234,a:0.5000/0.5000/0.5000,b:0.5000/0.5000/0.5000 \
+                 beta=0.487,0.500,0.500 shift=+0.0841,-0.0310 band0=n:1234,a:0.5000/0.5000/0.5000,b:0.5000/0.5000/0.5000 \
                  band1=n:1234,a:0.6171/0.5000/0.5000,b:0.5049/0.5000/0.5000 band2="
             ),
             "{plain}"
@@ -1242,7 +1259,7 @@ mod tests {
                     "{}",
                     lines[19]
                 );
-                assert!(lines[19].ends_with("held"), "{}", lines[19]);
+                assert!(lines[19].ends_with("held  shift .09"), "{}", lines[19]);
             }
         }
     }

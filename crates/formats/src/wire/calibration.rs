@@ -1,9 +1,9 @@
 //! The calibration line: the blind self-calibration's state ([`CapsuleEstimate`] and its
-//! confidence) as one ASCII line, sent by the board next to its frame lines. Version 1, byte by
+//! confidence) as one ASCII line, sent by the board next to its frame lines. Version 2, byte by
 //! byte:
 //!
 //! ```text
-//! $CAL,<ver>,<seq>,<t>,<conf>,<held>,<drop>,<band 0>,<band 1>,<band 2>,<band 3>*<crc>\r\n
+//! $CAL,<ver>,<seq>,<t>,<conf>,<held>,<drop>,<band 0>,<band 1>,<band 2>,<band 3>,<sx>,<sy>*<crc>\r\n
 //! <band k> = <n>,<a0>,<a1>,<a2>,<b0>,<b1>,<b2>
 //! ```
 //!
@@ -11,8 +11,8 @@
 //! |----------|---------------------------------------------------------------------------------------|
 //! | `$`      | start of line (0x24)                                                                  |
 //! | `CAL`    | tag (0x43 0x41 0x4C)                                                                  |
-//! | `,`      | field separator (0x2C), between every two fields (34 fields after the tag)            |
-//! | `ver`    | version of the calibration line, `1` ([`CALIBRATION_VERSION`])                        |
+//! | `,`      | field separator (0x2C), between every two fields (36 fields after the tag)            |
+//! | `ver`    | version of the calibration line, `2` ([`CALIBRATION_VERSION`])                        |
 //! | `seq`    | calibration lines sent, `u32` decimal, +1 per line, wraps; its own count, not the frames' |
 //! | `t`      | board sample clock when the snapshot was taken: `centre_sample` of the last estimate before it (`0` at start), `u64` |
 //! | `conf`   | `Locator::capsule_confidence` in per mille, rounded, `0..=1000` |
@@ -21,14 +21,18 @@
 //! | `n`      | per band ([`CAL_BANDS`] = 4, lowest first): [`BandModel::peaks`], rounded, `u32`      |
 //! | `a0..a2` | per band: [`BandModel::omni_part`] of cardioids 0°, 120°, 240° in 1/10000, rounded, `0..=20000` |
 //! | `b0..b2` | per band: [`BandModel::dipole_part`] likewise                                         |
+//! | `sx`,`sy`| [`CapsuleEstimate::talker_shift`] in 1/10000, rounded, signed, `-5000..=5000`         |
 //! | `*`      | end of the checksummed part (0x2A)                                                    |
 //! | `crc`    | CRC-16/CCITT-FALSE of every byte strictly between `$` and `*`, 4 upper-case hex digits |
 //! | `\r\n`   | end of line                                                                           |
 //!
-//! Numbers are canonical as in the frame line (no `+`, no leading zeros, no `-`: every field is
-//! unsigned), so a line that decodes is exactly what [`encode_calibration`] writes. The longest line
-//! is [`MAX_CAL_LINE`] = 251 bytes; a typical one (peaks in the thousands, parts near 5000) is about
-//! 170 bytes, 15 ms at 115200 baud.
+//! Numbers are canonical as in the frame line (no `+`, no leading zeros, `-` only before a non-zero
+//! `sx` or `sy`), so a line that decodes is exactly what [`encode_calibration`] writes. The longest
+//! line is [`MAX_CAL_LINE`] = 263 bytes; a typical one (peaks in the thousands, parts near 5000) is
+//! about 180 bytes, 16 ms at 115200 baud.
+//!
+//! Version 1 (a board built before the talker's shift was saved) is the same line without `sx`
+//! and `sy` (34 fields): [`decode_calibration`] still reads it, with a shift of 0.
 //!
 //! A decoder that knows only frame lines ([`decode`](super::decode)) rejects a calibration line with
 //! [`DecodeError::CalibrationLine`]; a monitor built before this line existed assembles lines of at
@@ -39,24 +43,34 @@ use super::{
     checked_payload, confidence_to_permille, parse_u32, parse_unsigned, split_fields, DecodeError,
     Field, Frame, Writer, CALIBRATION_TAG, CONFIDENCE_MAX_PERMILLE, FRAME_TAG, MAX_LINE,
 };
-use crate::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS};
+use crate::capsule_calibration::{BandModel, CapsuleEstimate, CAL_BANDS, MAX_TALKER_SHIFT};
 use crate::CARDIOIDS;
 
-/// Version of the calibration line written by [`encode_calibration`] and the only one
-/// [`decode_calibration`] accepts.
-pub const CALIBRATION_VERSION: u32 = 1;
+/// Version of the calibration line written by [`encode_calibration`].
+pub const CALIBRATION_VERSION: u32 = 2;
+
+/// The version before the talker's shift ([`CALIBRATION_FIELDS_V1`] fields, no `sx`, `sy`), still
+/// read by [`decode_calibration`].
+pub const CALIBRATION_VERSION_1: u32 = 1;
 
 /// Fields per band: `n`, three omni parts, three dipole parts.
 pub const BAND_FIELDS: usize = 1 + 2 * CARDIOIDS;
 
-/// Number of comma-separated fields after the `CAL` tag.
-pub const CALIBRATION_FIELDS: usize = 6 + CAL_BANDS * BAND_FIELDS;
+/// Number of comma-separated fields after the `CAL` tag (version 2).
+pub const CALIBRATION_FIELDS: usize = CALIBRATION_FIELDS_V1 + 2;
+
+/// Number of comma-separated fields after the `CAL` tag of a version 1 line.
+pub const CALIBRATION_FIELDS_V1: usize = 6 + CAL_BANDS * BAND_FIELDS;
 
 /// Units of an omni or dipole part on the wire per unit of the model (fixed point, 1/10000).
 pub const PART_SCALE: f32 = 10_000.0;
 
 /// Largest omni or dipole part on the wire, in 1/10000 (2.0; plausible parts lie in 0.3…0.75).
 pub const PART_MAX: u16 = 20_000;
+
+/// Largest magnitude of a talker's shift component on the wire, in 1/10000 of the plane
+/// ([`MAX_TALKER_SHIFT`] = 0.5).
+pub const SHIFT_MAX: i16 = (MAX_TALKER_SHIFT * PART_SCALE) as i16;
 
 /// Length of the longest possible calibration line in bytes, `$` to `\n` inclusive.
 pub const MAX_CAL_LINE: usize = 1 // $
@@ -67,7 +81,8 @@ pub const MAX_CAL_LINE: usize = 1 // $
     + 4 + 1 // conf
     + 1 + 1 // held
     + 10 + 1 // drop
-    + CAL_BANDS * (10 + 1 + 2 * CARDIOIDS * (5 + 1)) - 1 // bands, no comma after the last
+    + CAL_BANDS * (10 + 1 + 2 * CARDIOIDS * (5 + 1)) // bands
+    + 2 * (1 + 5) - 1 // sx, sy (comma, sign and 4 digits), no comma after the last
     + 1 + 4 // *crc
     + 2; // \r\n
 
@@ -110,6 +125,9 @@ pub struct CalibrationLine {
     pub dropped: u32,
     /// Per band, lowest first.
     pub bands: [CalibrationBand; CAL_BANDS],
+    /// The talker's shift x, y ([`CapsuleEstimate::talker_shift`]) in 1/10000,
+    /// `-`[`SHIFT_MAX`]`..=`[`SHIFT_MAX`]; 0 in a version 1 line.
+    pub talker_shift: [i16; 2],
 }
 
 /// A part of the model in 1/10000: rounded, clamped to `0..=`[`PART_MAX`]; NaN gives 0.
@@ -123,6 +141,13 @@ pub fn part_to_wire(v: f32) -> u16 {
     } else {
         0
     }
+}
+
+/// A talker's shift component in 1/10000: rounded, clamped to ±[`SHIFT_MAX`]; NaN gives 0.
+#[must_use]
+pub fn shift_to_wire(v: f32) -> i16 {
+    // `as` saturates and maps NaN to 0.
+    (libm::roundf(v * PART_SCALE) as i16).clamp(-SHIFT_MAX, SHIFT_MAX)
 }
 
 /// A peak count on the wire: rounded, clamped to `u32`; NaN and negative values give 0.
@@ -157,16 +182,18 @@ impl CalibrationLine {
             held: est.held,
             dropped,
             bands,
+            talker_shift: est.talker_shift.map(shift_to_wire),
         }
     }
 
-    /// The estimate the line describes (parts to 1/10000, peaks to 1), e.g. to start another
-    /// localizer from it (`Locator::set_capsule_estimate` of `cma-core`). The line does not carry
-    /// the talker's shift ([`CapsuleEstimate::talker_shift`]): it is 0 here.
+    /// The estimate the line describes (parts and the talker's shift to 1/10000, peaks to 1), e.g.
+    /// to start another localizer from it (`Locator::set_capsule_estimate` of `cma-core`). A
+    /// version 1 line has no talker's shift: it is 0 here.
     #[must_use]
     pub fn capsules(&self) -> CapsuleEstimate {
         let mut est = CapsuleEstimate {
             held: self.held,
+            talker_shift: self.talker_shift.map(|v| f32::from(v) / PART_SCALE),
             ..CapsuleEstimate::IDEAL
         };
         for (m, w) in est.bands.iter_mut().zip(&self.bands) {
@@ -191,11 +218,19 @@ impl CalibrationLine {
         (rate_hz != 0).then(|| self.centre_sample as f64 / f64::from(rate_hz))
     }
 
-    /// The line with the confidence and the parts clamped: what [`encode_calibration`] writes.
+    /// Whether the line carries a talker's shift (either component not 0).
+    #[must_use]
+    pub fn has_talker_shift(&self) -> bool {
+        self.talker_shift != [0; 2]
+    }
+
+    /// The line with the confidence, the parts and the shift clamped: what [`encode_calibration`]
+    /// writes.
     #[must_use]
     pub fn normalized(&self) -> CalibrationLine {
         let mut l = *self;
         l.confidence_permille = l.confidence_permille.min(CONFIDENCE_MAX_PERMILLE);
+        l.talker_shift = l.talker_shift.map(|v| v.clamp(-SHIFT_MAX, SHIFT_MAX));
         for b in &mut l.bands {
             for v in b.omni_part.iter_mut().chain(b.dipole_part.iter_mut()) {
                 *v = (*v).min(PART_MAX);
@@ -215,7 +250,8 @@ impl CalibrationLine {
 #[inline(never)]
 pub fn encode_calibration<const N: usize>(line: &CalibrationLine, out: &mut heapless::Vec<u8, N>) {
     const { assert!(N >= MAX_CAL_LINE, "the buffer must hold the longest line") };
-    let l = line.normalized();
+    // Clamped as `normalized` does, field by field (no copy of the line: the boards' flash).
+    let l = line;
     let mut w = Writer::new(out.as_mut_view());
     w.byte(b'$');
     w.bytes(CALIBRATION_TAG);
@@ -223,7 +259,7 @@ pub fn encode_calibration<const N: usize>(line: &CalibrationLine, out: &mut heap
     for v in [
         u64::from(l.seq),
         l.centre_sample,
-        u64::from(l.confidence_permille),
+        u64::from(l.confidence_permille.min(CONFIDENCE_MAX_PERMILLE)),
         u64::from(l.held),
         u64::from(l.dropped),
     ] {
@@ -235,8 +271,12 @@ pub fn encode_calibration<const N: usize>(line: &CalibrationLine, out: &mut heap
         w.unsigned(u64::from(b.peaks));
         for &v in b.omni_part.iter().chain(&b.dipole_part) {
             w.byte(b',');
-            w.unsigned(u64::from(v));
+            w.unsigned(u64::from(v.min(PART_MAX)));
         }
+    }
+    for v in l.talker_shift {
+        w.byte(b',');
+        w.signed(v.clamp(-SHIFT_MAX, SHIFT_MAX));
     }
     w.finish();
 }
@@ -245,8 +285,8 @@ pub fn encode_calibration<const N: usize>(line: &CalibrationLine, out: &mut heap
 ///
 /// Checks in this order: `$`, `CAL,` tag (a `$CMA,` frame line gives [`DecodeError::FrameLine`]),
 /// length ([`MAX_CAL_LINE`]), `*` and the 4 hex checksum digits, nothing after them, checksum,
-/// field count ([`CALIBRATION_FIELDS`]), version ([`CALIBRATION_VERSION`]), then each field
-/// (canonical number, range).
+/// version ([`CALIBRATION_VERSION`] or [`CALIBRATION_VERSION_1`]), that version's field count
+/// ([`CALIBRATION_FIELDS`], [`CALIBRATION_FIELDS_V1`]), then each field (canonical number, range).
 pub fn decode_calibration(line: &[u8]) -> Result<CalibrationLine, DecodeError> {
     let payload = checked_payload(
         line,
@@ -257,18 +297,19 @@ pub fn decode_calibration(line: &[u8]) -> Result<CalibrationLine, DecodeError> {
     )?;
     let mut fields: [&[u8]; CALIBRATION_FIELDS] = [&[]; CALIBRATION_FIELDS];
     let n = split_fields(payload, &mut fields);
-    if n != CALIBRATION_FIELDS {
-        return Err(DecodeError::FieldCount {
-            expected: CALIBRATION_FIELDS,
-            got: n,
-        });
-    }
     let version = parse_u32(fields[0], Field::Version)?;
-    if version != CALIBRATION_VERSION {
-        return Err(DecodeError::UnsupportedVersion {
-            expected: CALIBRATION_VERSION,
-            got: version,
-        });
+    let expected = match version {
+        CALIBRATION_VERSION => CALIBRATION_FIELDS,
+        CALIBRATION_VERSION_1 => CALIBRATION_FIELDS_V1,
+        got => {
+            return Err(DecodeError::UnsupportedVersion {
+                expected: CALIBRATION_VERSION,
+                got,
+            })
+        }
+    };
+    if n != expected {
+        return Err(DecodeError::FieldCount { expected, got: n });
     }
     let bounded = |s: &[u8], max: u64, field: Field| {
         let v = parse_unsigned(s, u64::MAX).ok_or(DecodeError::BadNumber { field })?;
@@ -290,6 +331,7 @@ pub fn decode_calibration(line: &[u8]) -> Result<CalibrationLine, DecodeError> {
         held: bounded(fields[4], 1, Field::Held)? == 1,
         dropped: parse_u32(fields[5], Field::Dropped)?,
         bands: [CalibrationBand::default(); CAL_BANDS],
+        talker_shift: [0; 2],
     };
     for (k, (band, f)) in line
         .bands
@@ -313,7 +355,31 @@ pub fn decode_calibration(line: &[u8]) -> Result<CalibrationLine, DecodeError> {
             )? as u16;
         }
     }
+    if version == CALIBRATION_VERSION {
+        let at = CALIBRATION_FIELDS_V1;
+        for (k, field) in [Field::ShiftX, Field::ShiftY].into_iter().enumerate() {
+            line.talker_shift[k] = parse_shift(fields[at + k], field)?;
+        }
+    }
     Ok(line)
+}
+
+/// A signed shift component: canonical (`-` only before a non-zero magnitude), within
+/// ±[`SHIFT_MAX`].
+fn parse_shift(s: &[u8], field: Field) -> Result<i16, DecodeError> {
+    let (neg, digits) = match s.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        _ => (false, s),
+    };
+    let mag = parse_unsigned(digits, u64::MAX).ok_or(DecodeError::BadNumber { field })?;
+    if neg && mag == 0 {
+        return Err(DecodeError::BadNumber { field });
+    }
+    if mag > SHIFT_MAX as u64 {
+        return Err(DecodeError::OutOfRange { field });
+    }
+    let v = mag as i16;
+    Ok(if neg { -v } else { v })
 }
 
 /// A decoded line of either kind ([`decode_line`]).
@@ -404,11 +470,20 @@ mod tests {
         est.bands[1].peaks = 5321.4;
         est.bands[3].peaks = 12.0;
         est.held = true;
+        est.talker_shift = [0.084_12, -0.031];
         CalibrationLine::from_capsules(&est, 0.8304, 3, 480_256, 1)
     }
 
     /// The payload of [`sample`]'s line.
-    const SAMPLE_PAYLOAD: &str = "CAL,1,3,480256,830,1,1,\
+    const SAMPLE_PAYLOAD: &str = "CAL,2,3,480256,830,1,1,\
+        0,5000,5000,5000,5000,5000,5000,\
+        5321,4812,5304,4950,5110,4620,5391,\
+        0,5000,5000,5000,5000,5000,5000,\
+        12,5000,5000,5000,5000,5000,5000,\
+        841,-310";
+
+    /// [`SAMPLE_PAYLOAD`] as a version 1 line (no talker's shift).
+    const SAMPLE_PAYLOAD_V1: &str = "CAL,1,3,480256,830,1,1,\
         0,5000,5000,5000,5000,5000,5000,\
         5321,4812,5304,4950,5110,4620,5391,\
         0,5000,5000,5000,5000,5000,5000,\
@@ -418,9 +493,50 @@ mod tests {
     fn example_line() {
         assert_eq!(line(&sample()), with_crc(SAMPLE_PAYLOAD));
         // The example of docs/wire-format.md.
-        let doc = std::format!("${SAMPLE_PAYLOAD}*6BCE\r\n");
+        let doc = std::format!(
+            "${SAMPLE_PAYLOAD}*{:04X}\r\n",
+            crc16(SAMPLE_PAYLOAD.as_bytes())
+        );
+        assert_eq!(
+            std::format!("{:04X}", crc16(SAMPLE_PAYLOAD.as_bytes())),
+            "9167"
+        );
         assert_eq!(line(&sample()), doc.as_bytes());
         assert_eq!(decode_calibration(&with_crc(SAMPLE_PAYLOAD)), Ok(sample()));
+    }
+
+    #[test]
+    fn a_version_1_line_is_read_without_a_shift() {
+        let v1 = with_crc(SAMPLE_PAYLOAD_V1);
+        // The version 1 example of docs/wire-format.md.
+        assert!(v1.ends_with(b"*6BCE\r\n"));
+        let l = decode_calibration(&v1).unwrap();
+        assert_eq!(
+            l,
+            CalibrationLine {
+                talker_shift: [0; 2],
+                ..sample()
+            }
+        );
+        assert!(!l.has_talker_shift());
+        assert_eq!(l.capsules().talker_shift, [0.0; 2]);
+        // A version 1 line with version 2's fields, and the reverse, are refused.
+        assert_eq!(
+            decode_calibration(&with_crc(&SAMPLE_PAYLOAD.replacen("CAL,2,", "CAL,1,", 1))),
+            Err(DecodeError::FieldCount {
+                expected: CALIBRATION_FIELDS_V1,
+                got: CALIBRATION_FIELDS
+            })
+        );
+        assert_eq!(
+            decode_calibration(&with_crc(
+                &SAMPLE_PAYLOAD_V1.replacen("CAL,1,", "CAL,2,", 1)
+            )),
+            Err(DecodeError::FieldCount {
+                expected: CALIBRATION_FIELDS,
+                got: CALIBRATION_FIELDS_V1
+            })
+        );
     }
 
     #[test]
@@ -432,6 +548,8 @@ mod tests {
         assert_eq!(decode_line(&bytes), Ok(Line::Calibration(l)));
         let est = l.capsules();
         assert!(est.held);
+        assert!(l.has_talker_shift());
+        assert_eq!(est.talker_shift, [0.0841, -0.031]);
         assert_eq!(est.bands[1].omni_part, [0.4812, 0.5304, 0.495]);
         assert_eq!(est.bands[1].dipole_part, [0.511, 0.462, 0.5391]);
         assert_eq!(est.bands[1].peaks, 5321.0);
@@ -459,10 +577,11 @@ mod tests {
                 omni_part: [PART_MAX; CARDIOIDS],
                 dipole_part: [PART_MAX; CARDIOIDS],
             }; CAL_BANDS],
+            talker_shift: [-SHIFT_MAX; 2],
         };
         let l = line(&widest);
         assert_eq!(l.len(), MAX_CAL_LINE);
-        assert_eq!(MAX_CAL_LINE, 251);
+        assert_eq!(MAX_CAL_LINE, 263);
         assert_eq!(decode_calibration(&l), Ok(widest));
         let zero = CalibrationLine::default();
         assert_eq!(decode_calibration(&line(&zero)), Ok(zero));
@@ -479,12 +598,19 @@ mod tests {
         assert_eq!(peaks_to_wire(-3.0), 0);
         assert_eq!(peaks_to_wire(1e20), u32::MAX);
         assert_eq!(peaks_to_wire(2.5), 3);
+        assert_eq!(shift_to_wire(-0.031_04), -310);
+        assert_eq!(shift_to_wire(f32::NAN), 0);
+        assert_eq!(shift_to_wire(-7.0), -SHIFT_MAX);
+        assert_eq!(shift_to_wire(f32::INFINITY), SHIFT_MAX);
+        assert_eq!(SHIFT_MAX, 5000);
         let mut l = sample();
         l.confidence_permille = 4000;
         l.bands[0].omni_part[2] = u16::MAX;
+        l.talker_shift = [i16::MIN, i16::MAX];
         let back = decode_calibration(&line(&l)).unwrap();
         assert_eq!(back.confidence_permille, 1000);
         assert_eq!(back.bands[0].omni_part[2], PART_MAX);
+        assert_eq!(back.talker_shift, [-SHIFT_MAX, SHIFT_MAX]);
     }
 
     #[test]
@@ -538,22 +664,28 @@ mod tests {
         assert_eq!(
             decode_calibration(&with_crc(short)),
             Err(FieldCount {
-                expected: 34,
-                got: 33
+                expected: 36,
+                got: 35
             })
         );
         assert_eq!(
             decode_calibration(&with_crc(&std::format!("{SAMPLE_PAYLOAD},0"))),
             Err(FieldCount {
-                expected: 34,
-                got: 35
+                expected: 36,
+                got: 37
             })
         );
         assert_eq!(
-            decode_calibration(&with_crc(&SAMPLE_PAYLOAD.replacen("CAL,1,", "CAL,2,", 1))),
+            decode_calibration(&with_crc(&SAMPLE_PAYLOAD.replacen("CAL,2,", "CAL,3,", 1))),
             Err(UnsupportedVersion {
-                expected: 1,
-                got: 2
+                expected: 2,
+                got: 3
+            })
+        );
+        assert_eq!(
+            decode_calibration(&with_crc("CAL,x")),
+            Err(BadNumber {
+                field: Field::Version
             })
         );
         // Field k (0 = ver) of the payload replaced by `text`.
@@ -585,6 +717,12 @@ mod tests {
                     cardioid: 2,
                 },
             ),
+            (34, "-0", Field::ShiftX),
+            (34, "+5", Field::ShiftX),
+            (35, "--3", Field::ShiftY),
+            (35, "-031", Field::ShiftY),
+            (35, "", Field::ShiftY),
+            (35, "99999999999999999999", Field::ShiftY),
         ];
         for &(k, text, field_id) in malformed {
             assert_eq!(
@@ -604,6 +742,8 @@ mod tests {
                     cardioid: 0,
                 },
             ),
+            (34, "5001", Field::ShiftX),
+            (35, "-5001", Field::ShiftY),
         ];
         for &(k, text, field_id) in ranges {
             assert_eq!(
@@ -676,15 +816,19 @@ mod tests {
             any::<bool>(),
             any::<u32>(),
             prop::array::uniform4(band),
+            prop::array::uniform2(-SHIFT_MAX..=SHIFT_MAX),
         )
             .prop_map(
-                |(seq, centre_sample, confidence_permille, held, dropped, bands)| CalibrationLine {
-                    seq,
-                    centre_sample,
-                    confidence_permille,
-                    held,
-                    dropped,
-                    bands,
+                |(seq, centre_sample, confidence_permille, held, dropped, bands, talker_shift)| {
+                    CalibrationLine {
+                        seq,
+                        centre_sample,
+                        confidence_permille,
+                        held,
+                        dropped,
+                        bands,
+                        talker_shift,
+                    }
                 },
             )
     }
