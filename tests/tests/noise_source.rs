@@ -276,4 +276,43 @@ fn a_restart_beside_the_source_starts_with_the_talkers_shift() {
         with < without - 3.0,
         "{with:.2}° from the saved estimate, {without:.2}° from its bands alone ({row})"
     );
+    // The board's calibration lines (`emit` sends what the board would) carry the shift: from a
+    // cold start once the talker's places gave it, and from the saved estimate the first line (the
+    // estimate the board starts from) holds it to the wire's 1/10000.
+    let shift: Vec<f32> = row.split(',').skip(1).map(|v| v.parse().unwrap()).collect();
+    let cold = calibration_lines(&wav, &[]);
+    assert!(cold[0].talker_shift == [0; 2], "{:?}", cold[0]);
+    assert!(cold.last().unwrap().has_talker_shift(), "{cold:?}");
+    let restarted = calibration_lines(&wav, &["--selfcal-in", saved_arg]);
+    let first = restarted[0].capsules().talker_shift;
+    for k in 0..2 {
+        assert!(
+            (first[k] - shift[k]).abs() <= 0.000_05,
+            "the wire's shift {first:?}, the saved one {shift:?}"
+        );
+    }
+}
+
+/// The calibration lines `host-sim emit` sends for `wav` with the flags `extra`.
+fn calibration_lines(wav: &Path, extra: &[&str]) -> Vec<cma_core::wire::CalibrationLine> {
+    let mut args = vec![
+        "host-sim",
+        "emit",
+        wav.to_str().unwrap(),
+        "--port",
+        "/dev/null",
+    ];
+    args.extend_from_slice(extra);
+    let cli = <host_sim::Cli as clap::Parser>::try_parse_from(args).expect("parse emit args");
+    let host_sim::Command::Emit(a) = cli.command else {
+        unreachable!("parsed an emit command")
+    };
+    let (_, lines) = host_sim::commands::emit::lines(&a).expect("emit lines");
+    lines
+        .into_iter()
+        .filter_map(|l| match l {
+            cma_core::wire::Line::Calibration(c) => Some(c),
+            _ => None,
+        })
+        .collect()
 }
