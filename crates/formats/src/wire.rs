@@ -645,6 +645,12 @@ fn parse_u32(s: &[u8], field: Field) -> Result<u32, DecodeError> {
 
 /// Canonical signed decimal azimuth in range.
 fn parse_tenths(s: &[u8], field: Field) -> Result<i16, DecodeError> {
+    parse_signed(s, AZIMUTH_MIN_TENTHS, AZIMUTH_MAX_TENTHS, field)
+}
+
+/// Canonical signed decimal (`-` only before a non-zero magnitude, at most `u16::MAX`) within
+/// `min..=max`.
+fn parse_signed(s: &[u8], min: i16, max: i16, field: Field) -> Result<i16, DecodeError> {
     let (neg, digits) = match s.split_first() {
         Some((b'-', rest)) => (true, rest),
         _ => (false, s),
@@ -655,7 +661,7 @@ fn parse_tenths(s: &[u8], field: Field) -> Result<i16, DecodeError> {
         return Err(DecodeError::BadNumber { field });
     }
     let v = if neg { -(mag as i64) } else { mag as i64 };
-    if v < i64::from(AZIMUTH_MIN_TENTHS) || v > i64::from(AZIMUTH_MAX_TENTHS) {
+    if v < i64::from(min) || v > i64::from(max) {
         return Err(DecodeError::OutOfRange { field });
     }
     Ok(v as i16)

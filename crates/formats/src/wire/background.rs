@@ -36,8 +36,8 @@
 //! monitor of that age counts one corrupt line per background line and goes on.
 
 use super::{
-    checked_payload, parse_tenths, parse_u32, parse_unsigned, split_fields, DecodeError, Field,
-    Writer, BACKGROUND_TAG, CONFIDENCE_MAX_PERMILLE, FRAME_TAG,
+    checked_payload, parse_signed, parse_tenths, parse_u32, parse_unsigned, split_fields,
+    DecodeError, Field, Writer, BACKGROUND_TAG, CONFIDENCE_MAX_PERMILLE, FRAME_TAG,
 };
 use crate::background_field::{BackgroundBand, BG_BANDS};
 
@@ -257,7 +257,12 @@ pub fn decode_background(line: &[u8]) -> Result<BackgroundLine, DecodeError> {
             });
         }
         band.directivity_permille = dir as u16;
-        band.level_tenths_db = parse_level(f[3], Field::BackgroundLevel { band: k })?;
+        band.level_tenths_db = parse_signed(
+            f[3],
+            LEVEL_MIN_TENTHS,
+            LEVEL_MAX_TENTHS,
+            Field::BackgroundLevel { band: k },
+        )?;
         if band.frames == 0 && *band != WireBackgroundBand::default() {
             return Err(DecodeError::OutOfRange {
                 field: Field::BackgroundFrames { band: k },
@@ -265,24 +270,6 @@ pub fn decode_background(line: &[u8]) -> Result<BackgroundLine, DecodeError> {
         }
     }
     Ok(out)
-}
-
-/// Canonical signed decimal level in tenths of a dB, in range.
-fn parse_level(s: &[u8], field: Field) -> Result<i16, DecodeError> {
-    let (neg, digits) = match s.split_first() {
-        Some((b'-', rest)) => (true, rest),
-        _ => (false, s),
-    };
-    let mag =
-        parse_unsigned(digits, u64::from(u16::MAX)).ok_or(DecodeError::BadNumber { field })?;
-    if neg && mag == 0 {
-        return Err(DecodeError::BadNumber { field });
-    }
-    let v = if neg { -(mag as i64) } else { mag as i64 };
-    if v < i64::from(LEVEL_MIN_TENTHS) || v > i64::from(LEVEL_MAX_TENTHS) {
-        return Err(DecodeError::OutOfRange { field });
-    }
-    Ok(v as i16)
 }
 
 #[cfg(test)]
