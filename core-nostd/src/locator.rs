@@ -540,7 +540,7 @@ impl<'t> Locator<'t> {
     fn similarity_gates(&mut self, level: &Level, index: u32) -> (f32, f32) {
         let c = &self.config;
         let gate = if c.noise_gate.enabled {
-            let directional = self.similarity.background_is_directional();
+            let directional = self.similarity.background_source_dominates();
             let frames_per_s = self.analysis_rate() as f32 * (1.0 / HOP as f32);
             let starting = (index as f32) < START_UP_S * frames_per_s;
             level.gate * self.noise_floor.update(level.power, directional, starting)

@@ -219,12 +219,12 @@ impl SimilarityFrame {
             .reset(settings, fs, fs / HOP as f32, &self.capsule_start);
     }
 
-    /// Whether the measured stationary background is a directional source's
-    /// ([`BackgroundFieldState::is_directional`]; never without the `noise-field` feature or with
+    /// Whether a stationary source dominates the measured background
+    /// ([`BackgroundFieldState::source_dominates`]; never without the `noise-field` feature or with
     /// the background field off, which measures nothing).
     #[must_use]
-    pub fn background_is_directional(&self) -> bool {
-        cfg!(feature = "noise-field") && self.background.is_directional()
+    pub fn background_source_dominates(&self) -> bool {
+        cfg!(feature = "noise-field") && self.background.source_dominates()
     }
 
     /// Restarts the background field with `settings` (nothing measured yet).

@@ -59,7 +59,7 @@ const LOCATE_AFTER_HELP: &str = concat!(
     "Unless --quiet, stderr ends with a summary: for AmbiX input how its normalisation was read \
      (SN3D or N3D, from its first-order power over the omni's), then the self-calibration's \
      estimate per band (when it is on, 5 lines; a sixth names the bands that learned nothing because their background was never diffuse, and what helps), then the stationary background per band (when the background field is \
-     on: a band with directivity above 0.3 as a source at its azimuth, else diffuse; its level in \
+     on: a band with directivity above 0.2 as a source at its azimuth, else diffuse; its level in \
      dBFS, dB re full-scale mean square, and relative to the median power_db of the frames), then \
      one line counting the frames, those with history and those with NaN/Inf input. Input with NaN/Inf samples (replaced by 0, flag 4 NON_FINITE) still exits 0, \
      with a warning line on stderr (also with --quiet); so does a recording whose channels do not \

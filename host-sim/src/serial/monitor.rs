@@ -11,7 +11,7 @@
 //! count in the frame counters.
 //!
 //! The board's background lines (`$BGF`, the stationary background per band, one every 10 s) are
-//! decoded too: the live view marks each band's dominant stationary source on the compass (`L`
+//! decoded too: the live view marks each band's stationary source on the compass (`L`
 //! below 1 kHz, `H` from 1 kHz, when its directivity is above
 //! [`DIRECTIONAL_MIN`](cma_core::background_field::DIRECTIONAL_MIN), else the band is called
 //! diffuse) and prints the bands in one line ([`background_summary`]); `--plain` prints each as a
@@ -456,7 +456,7 @@ fn background_band_text(b: &WireBackgroundBand) -> String {
 }
 
 /// The live view's line for a background line (at most 80 characters for levels above −200
-/// dBFS): per band its compass mark, its name, and its dominant stationary source's direction,
+/// dBFS): per band its compass mark, its name, and its stationary source's direction,
 /// directivity and level (dB re full-scale mean square), or `diffuse` when the directivity is
 /// at most [`DIRECTIONAL_MIN`](cma_core::background_field::DIRECTIONAL_MIN). E.g.
 /// `background: L <1 kHz 31° dir 0.45 -52 dBFS; H ≥1 kHz diffuse (0.12) -60 dBFS`.

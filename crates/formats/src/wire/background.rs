@@ -130,7 +130,7 @@ impl WireBackgroundBand {
         f32::from(self.level_tenths_db) / 10.0
     }
 
-    /// Whether a source dominates the band
+    /// Whether a source stands out of the band's diffuse noise
     /// ([`DIRECTIONAL_MIN`](crate::background_field::DIRECTIONAL_MIN), as
     /// [`BackgroundBand::is_directional`]).
     #[must_use]
