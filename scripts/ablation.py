@@ -11,7 +11,7 @@ span recall/precision) or adds 0.2 degrees of MAE on both seed ranges.
 Usage: scripts/ablation.py FULL_DIR HELD_OUT_DIR [--doc docs/ablation.md] [--only NAME,...]
 The folders are `scripts/validate` output folders: a full run (`--out FULL_DIR`) and a held-out one
 (`--first-seed 100 --seeds 8 --out HELD_OUT_DIR`); kinds missing there are rendered first (about
-20 minutes on 2 cores for both, then about a minute per variant). Runs from a clone (HS=path to
+an hour and a half on 2 cores for both, then about a minute per variant). Runs from a clone (HS=path to
 use another host-sim build).
 """
 
