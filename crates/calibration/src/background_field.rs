@@ -509,6 +509,31 @@ mod tests {
         s
     }
 
+    /// A fresh state after 200 background frames, each with two peaks (bins 20 and 100) of random
+    /// phase whose active ratios are a source's from `az` degrees for `share` of them and diffuse
+    /// noise's ½ for the rest (`share` = 1: the plane wave alone).
+    fn learned_from_source(az: f32, share: f32, seed: u32) -> BackgroundFieldState {
+        let mut s = state();
+        let mut rng = Lcg(seed);
+        for _ in 0..200 {
+            let mut power = [0.0f32; NUM_BINS];
+            let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 2];
+            for (i, &k) in [20usize, 100].iter().enumerate() {
+                let ph = core::f32::consts::TAU * rng.unit();
+                let (w, x) = wave(az, Complex32::new(libm::cosf(ph), libm::sinf(ph)));
+                let x = x.map(|c| c * share + w * (0.5 * (1.0 - share)));
+                power[k] = w.norm_sqr();
+                peaks[i] = (w, x);
+            }
+            s.begin_frame(&power, 10, 300, true);
+            for (&k, (w, x)) in [20usize, 100].iter().zip(&peaks) {
+                s.add_peak(k, *w, x);
+            }
+            s.end_frame();
+        }
+        s
+    }
+
     /// A background switched on with the recording (its first frames 16, 10 and 4 dB below its
     /// steady power, then steady within ±1 dB) is background from its first steady frame on; a
     /// floor started on the first frame, rising 2 dB/s, would count no later frame as background
@@ -714,24 +739,8 @@ mod tests {
             "{dir} {d}"
         );
         // A learned state: the test background from 40°.
-        let mut s = state();
-        assert_eq!(s.band_summary(0), None);
-        let mut rng = Lcg(5);
-        for _ in 0..200 {
-            let mut power = [0.0f32; NUM_BINS];
-            let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 2];
-            for (i, &k) in [20usize, 100].iter().enumerate() {
-                let ph = core::f32::consts::TAU * rng.unit();
-                let (w, x) = wave(40.0, Complex32::new(libm::cosf(ph), libm::sinf(ph)));
-                power[k] = w.norm_sqr();
-                peaks[i] = (w, x);
-            }
-            s.begin_frame(&power, 10, 300, true);
-            for (&k, (w, x)) in [20usize, 100].iter().zip(&peaks) {
-                s.add_peak(k, *w, x);
-            }
-            s.end_frame();
-        }
+        assert_eq!(state().band_summary(0), None);
+        let s = learned_from_source(40.0, 1.0, 5);
         for b in s.summary() {
             let b = b.expect("evidence in both bands");
             assert!((b.direction_deg - 40.0).abs() < 0.5, "{b:?}");
@@ -750,25 +759,7 @@ mod tests {
         for (share, shown, dominant) in
             [(0.1, false, false), (0.25, true, false), (0.4, true, true)]
         {
-            let mut s = state();
-            let mut rng = Lcg(9);
-            for _ in 0..200 {
-                let mut power = [0.0f32; NUM_BINS];
-                let mut peaks = [(Complex32::new(0.0, 0.0), [Complex32::new(0.0, 0.0); 3]); 2];
-                for (i, &k) in [20usize, 100].iter().enumerate() {
-                    let ph = core::f32::consts::TAU * rng.unit();
-                    let (w, x) = wave(-70.0, Complex32::new(libm::cosf(ph), libm::sinf(ph)));
-                    // The source's share of the active ratios, diffuse noise's ½ for the rest.
-                    let x = x.map(|c| c * share + w * (0.5 * (1.0 - share)));
-                    power[k] = w.norm_sqr();
-                    peaks[i] = (w, x);
-                }
-                s.begin_frame(&power, 10, 300, true);
-                for (&k, (w, x)) in [20usize, 100].iter().zip(&peaks) {
-                    s.add_peak(k, *w, x);
-                }
-                s.end_frame();
-            }
+            let s = learned_from_source(-70.0, share, 9);
             for b in s.summary() {
                 let b = b.expect("evidence in both bands");
                 assert!((b.directivity - share).abs() < 1e-3, "{share}: {b:?}");
