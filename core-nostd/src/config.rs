@@ -391,7 +391,7 @@ fn invalid(what: &'static str) -> Result<(), Error> {
 }
 
 impl Default for LocatorConfig {
-    /// The product configuration: the thesis method plus the measured improvements (README,
+    /// The product configuration: the thesis method plus the measured improvements (docs/history.md,
     /// "Accuracy"): onset weighting of peaks, a variance floor and a tighter scale for b, the
     /// Bayesian grid tracker with velocity drift instead of the one-pole curve filter, 16 peaks
     /// instead of 10, the noise-floor gate and the frame onset weighting of b, and active-ratio features.

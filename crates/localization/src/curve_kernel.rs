@@ -12,7 +12,7 @@
 //! of p = 1 and the least-squares mean of p = 2). The mean curve is then 1 − k·Σw·d^p/Σw, smooth at
 //! its vertex. Far from the talker it keeps falling where 1/(1 + d) flattens out, so the curve's
 //! variance, which rates the frame ([`crate::reliability`]), has another scale: the product
-//! configuration's variance floor and scale were measured for this kernel (README, "Accuracy").
+//! configuration's variance floor and scale were measured for this kernel (docs/history.md, "Accuracy").
 //!
 //! On the Cortex-M4F it costs what the reciprocal costs: per peak and azimuth a square root and a
 //! multiplication instead of an addition and a division, and the scale k is applied once per azimuth
