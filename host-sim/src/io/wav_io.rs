@@ -100,6 +100,32 @@ impl WiringSums {
             return None;
         }
         let db = |p: f64, re: f64| 10.0 * (p / re).log10();
+        let residual = |flip: Option<usize>| {
+            let mut c = [-1.5, 1.0, 1.0, 1.0];
+            if let Some(m) = flip {
+                c[m + 1] = -1.0;
+            }
+            self.power(c) / (2.25 * omni)
+        };
+        let wired = residual(None);
+        // A cardioid whose sign flipped makes the three add up: its polarity is reversed. Checked
+        // first: the sum that predicts a capsule from the other three then blames another one
+        // (a reversed cardioid facing the talker makes the one beside it look dead).
+        if wired > WIRING_RESIDUAL {
+            let flipped = (0..3)
+                .map(|m| (m, residual(Some(m))))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .filter(|(_, r)| *r <= WIRING_RESIDUAL);
+            if let Some((m, _)) = flipped {
+                return Some(format!(
+                    "warning: input: the cardioid looking {}° (channel {}) reads with reversed \
+                     polarity (the three cardioids add up to 1.5 × the omni only with its sign \
+                     flipped): are its leads swapped?",
+                    cma_core::CARDIOID_LOOK_DEG[m],
+                    m + 2
+                ));
+            }
+        }
         for (m, look) in cma_core::CARDIOID_LOOK_DEG.iter().enumerate() {
             let own = self.sum(m + 1, m + 1);
             // What the other three capsules say this one hears: 1.5·W less the other two.
@@ -127,14 +153,13 @@ impl WiringSums {
                 ));
             }
         }
-        let residual = self.power([-1.5, 1.0, 1.0, 1.0]) / (2.25 * omni);
-        (residual > WIRING_RESIDUAL).then(|| {
+        (wired > WIRING_RESIDUAL).then(|| {
             format!(
                 "warning: input: the three cardioids do not add up to 1.5 × the omni as cardioids \
                  looking 0°, 120°, 240° beside it do ({:.0} % of its power is left over, a wired \
                  array leaves under 11 %): is a capsule's polarity reversed, or the omni on another \
                  channel?",
-                100.0 * residual
+                100.0 * wired
             )
         })
     }
@@ -1269,6 +1294,26 @@ mod tests {
             .collect()
     }
 
+    /// Frames of an ideal array hearing one plane wave from `azimuth_deg` over a diffuse field 20 dB
+    /// below it.
+    fn talker_frames(azimuth_deg: f32) -> Vec<[f32; 4]> {
+        let mut rng = crate::simulation::signal::Rng::new(5);
+        let t = azimuth_deg.to_radians();
+        (0..20_000)
+            .map(|_| {
+                let s = rng.gaussian() as f32;
+                let [w, x, y] = [0; 3].map(|_| 0.1 * rng.gaussian() as f32);
+                let (w, x, y) = (w + s, 0.58 * x + s * t.cos(), 0.58 * y + s * t.sin());
+                let mut f = [w, 0.0, 0.0, 0.0];
+                for m in 0..3 {
+                    let a = cma_core::CARDIOID_LOOK_DEG[m].to_radians();
+                    f[m + 1] = 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
+                }
+                f
+            })
+            .collect()
+    }
+
     /// The wiring check is silent for ideal and imperfect arrays and names a dead cardioid, the
     /// omni on a cardioid's channel and a reversed polarity.
     #[test]
@@ -1293,7 +1338,26 @@ mod tests {
         assert!(e.contains("above the omni"), "{e}");
         let reversed: Vec<_> = ideal.iter().map(|f| [f[0], -f[1], f[2], f[3]]).collect();
         let e = check(&reversed).unwrap();
-        assert!(e.contains("polarity"), "{e}");
+        assert!(
+            e.contains("reversed") && e.contains("0°") && e.contains("channel 2"),
+            "{e}"
+        );
+        // A reversed cardioid facing a talker: named, not the one beside it as dead.
+        for m in 0..3 {
+            let facing = talker_frames(cma_core::CARDIOID_LOOK_DEG[m]);
+            assert_eq!(check(&facing), None);
+            let flipped: Vec<_> = facing
+                .iter()
+                .map(|f| {
+                    let mut f = *f;
+                    f[m + 1] = -f[m + 1];
+                    f
+                })
+                .collect();
+            let e = check(&flipped).unwrap();
+            let channel = format!("(channel {})", m + 2);
+            assert!(e.contains("reversed") && e.contains(&channel), "{e}");
+        }
         // Silence and non-finite samples say nothing.
         assert_eq!(check(&[[0.0; 4]; 100]), None);
         assert_eq!(check(&[[f32::NAN; 4]; 100]), None);
