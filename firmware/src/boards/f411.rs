@@ -4,7 +4,7 @@
 //!
 //! | signal            | pin  | peripheral (AF)      | ADC A (omni, card 0°) | ADC B (card 120°, 240°) |
 //! |-------------------|------|----------------------|-----------------------|-------------------------|
-//! | MCK 4.096 MHz     | PA3  | I2S2_MCK (AF5)       | SCKI                  | SCKI                    |
+//! | MCK 4.095 MHz     | PA3  | I2S2_MCK (AF5)       | SCKI                  | SCKI                    |
 //! | BCK 1.024 MHz     | PB13 | I2S2_CK (AF5), out   | BCK                   | BCK                     |
 //! | BCK, slave input  | PB3  | I2S3_CK (AF6), in    | — (wire to PB13)      | — (wire to PB13)        |
 //! | LRCK 16 kHz       | PB12 | I2S2_WS (AF5), out   | LRCK                  | LRCK                    |
