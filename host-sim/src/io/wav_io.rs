@@ -1275,21 +1275,25 @@ mod tests {
         assert!(n.line().contains("no signal"), "{}", n.line());
     }
 
-    /// Frames of an array in a field of random W, X, Y (a diffuse-like field): cardioid m =
-    /// g_m·((1 − β_m)·W + β_m·(X cos φ_m + Y sin φ_m)).
+    /// One frame of an array at field components W, X, Y (X, Y the horizontal dipoles): cardioid
+    /// m = g_m·((1 − β_m)·W + β_m·(X cos φ_m + Y sin φ_m)).
+    fn capsules(w: f32, x: f32, y: f32, gain_db: [f32; 3], beta: [f32; 3]) -> [f32; 4] {
+        let mut f = [w, 0.0, 0.0, 0.0];
+        for m in 0..3 {
+            let a = cma_core::CARDIOID_LOOK_DEG[m].to_radians();
+            let g = 10f32.powf(gain_db[m] / 20.0);
+            f[m + 1] = g * ((1.0 - beta[m]) * w + beta[m] * (x * a.cos() + y * a.sin()));
+        }
+        f
+    }
+
+    /// Frames of an array in a field of random W, X, Y (a diffuse-like field).
     fn array_frames(gain_db: [f32; 3], beta: [f32; 3]) -> Vec<[f32; 4]> {
         let mut rng = crate::simulation::signal::Rng::new(3);
         (0..20_000)
             .map(|_| {
                 let [w, x, y] = [0; 3].map(|_| rng.gaussian() as f32);
-                let mut f = [w, 0.0, 0.0, 0.0];
-                for m in 0..3 {
-                    let a = cma_core::CARDIOID_LOOK_DEG[m].to_radians();
-                    let g = 10f32.powf(gain_db[m] / 20.0);
-                    f[m + 1] =
-                        g * ((1.0 - beta[m]) * w + beta[m] * 0.58 * (x * a.cos() + y * a.sin()));
-                }
-                f
+                capsules(w, 0.58 * x, 0.58 * y, gain_db, beta)
             })
             .collect()
     }
@@ -1303,13 +1307,13 @@ mod tests {
             .map(|_| {
                 let s = rng.gaussian() as f32;
                 let [w, x, y] = [0; 3].map(|_| 0.1 * rng.gaussian() as f32);
-                let (w, x, y) = (w + s, 0.58 * x + s * t.cos(), 0.58 * y + s * t.sin());
-                let mut f = [w, 0.0, 0.0, 0.0];
-                for m in 0..3 {
-                    let a = cma_core::CARDIOID_LOOK_DEG[m].to_radians();
-                    f[m + 1] = 0.5 * w + 0.5 * (x * a.cos() + y * a.sin());
-                }
-                f
+                capsules(
+                    w + s,
+                    0.58 * x + s * t.cos(),
+                    0.58 * y + s * t.sin(),
+                    [0.0; 3],
+                    [0.5; 3],
+                )
             })
             .collect()
     }
