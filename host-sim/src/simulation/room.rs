@@ -173,6 +173,7 @@ impl ShoeBox {
             v
         };
         let (ax, ay, az) = (axis(0), axis(1), axis(2));
+        let taps = tap_angles();
         for &(dx, kx) in &ax {
             for &(dy, ky) in &ay {
                 let dxy2 = dx * dx + dy * dy;
@@ -190,7 +191,7 @@ impl ShoeBox {
                     }
                     let t = r / SPEED_OF_SOUND * fs;
                     let (ux, uy) = (dx / r, dy / r);
-                    add_fractional(&mut out, t, gain * direct, [1.0, ux, uy]);
+                    add_fractional(&mut out, t, gain * direct, [1.0, ux, uy], &taps);
                 }
             }
         }
@@ -205,10 +206,18 @@ impl ShoeBox {
 }
 
 /// Adds one image (delay `t` samples, `gain`, encoding `enc` for W, X, Y) with a Hann-windowed sinc.
-fn add_fractional(out: &mut [Vec<f64>; 3], t: f64, gain: f64, enc: [f64; 3]) {
+///
+/// Tap k sits at x = k − frac: its sinc is sin(πx)/(πx) = (−1)^(k+1)·sin(π·frac)/(πx), and its
+/// window's cos(πx/(H+1)) follows from the taps' fixed angles (`taps`: sine and cosine of
+/// πk/(H+1), k = −H…H, see [`tap_angles`]) by the angle-difference formula, so an image costs
+/// three sines and cosines instead of two per tap.
+fn add_fractional(out: &mut [Vec<f64>; 3], t: f64, gain: f64, enc: [f64; 3], taps: &TapAngles) {
     let n0 = t.floor() as i64;
     let frac = t - n0 as f64;
     let len = out[0].len() as i64;
+    let sin_frac = (PI * frac).sin();
+    let step = PI / (HALF_TAPS + 1) as f64;
+    let (sin_shift, cos_shift) = (step * frac).sin_cos();
     for k in -HALF_TAPS..=HALF_TAPS {
         let i = n0 + k;
         if i < 0 || i >= len {
@@ -217,15 +226,27 @@ fn add_fractional(out: &mut [Vec<f64>; 3], t: f64, gain: f64, enc: [f64; 3]) {
         let x = k as f64 - frac;
         let sinc = if x.abs() < 1e-12 {
             1.0
+        } else if k % 2 == 0 {
+            -sin_frac / (PI * x)
         } else {
-            (PI * x).sin() / (PI * x)
+            sin_frac / (PI * x)
         };
-        let win = 0.5 + 0.5 * (PI * x / (HALF_TAPS + 1) as f64).cos();
+        let (sin_k, cos_k) = taps[(k + HALF_TAPS) as usize];
+        let win = 0.5 + 0.5 * (cos_k * cos_shift + sin_k * sin_shift);
         let v = sinc * win * gain;
         for (o, e) in out.iter_mut().zip(enc) {
             o[i as usize] += v * e;
         }
     }
+}
+
+/// Sine and cosine of πk/(H+1) for the fractional-delay filter's taps k = −H…H.
+type TapAngles = [(f64, f64); 2 * HALF_TAPS as usize + 1];
+
+/// The taps' angles of [`add_fractional`]'s window.
+fn tap_angles() -> TapAngles {
+    let step = PI / (HALF_TAPS + 1) as f64;
+    core::array::from_fn(|i| (step * (i as i64 - HALF_TAPS) as f64).sin_cos())
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -13,7 +13,10 @@ use crate::io::ground_truth::{wrap180, Track};
 use crate::io::wav_io::{read_four_channels, read_mono, write_atomically, write_frames, OutFormat};
 use crate::simulation::array_model::ArrayModel;
 use crate::simulation::noise_source::{self, NoiseSource, SourceRoom};
-use crate::simulation::signal::{convolve, normalize_rms, pink_noise, resample, Rng};
+use crate::simulation::signal::{
+    convolve, normalize_rms, pink_noise, resample, Rng, SegmentConvolver,
+};
+use rustfft::num_complex::Complex64;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -288,25 +291,24 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
         (Some(room), Motion::Steps(rows)) => {
             for (i, (t0, az)) in rows.iter().enumerate() {
                 let t1 = rows.get(i + 1).map_or(f64::INFINITY, |r| r.0);
-                let seg: Vec<f64> = spec
-                    .source
-                    .iter()
-                    .enumerate()
-                    .map(|(n, s)| {
-                        let t = (n + lead) as f64 / rate;
-                        if t >= *t0 && t < t1 {
-                            *s
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect();
+                // The source samples heard at this place: n with t0 ≤ (n + lead)/rate < t1.
+                let inside = |n: &usize| {
+                    let t = (n + lead) as f64 / rate;
+                    t >= *t0 && t < t1
+                };
+                let Some(first) = (0..spec.source.len()).find(inside) else {
+                    continue;
+                };
+                let end = (first..spec.source.len())
+                    .find(|n| !inside(n))
+                    .unwrap_or(spec.source.len());
+                let seg = &spec.source[first..end];
                 if seg.iter().all(|v| *v == 0.0) {
                     continue;
                 }
                 for (o, h) in out.iter_mut().zip(room.response(*az).rotated(*az)) {
-                    for (k, v) in convolve(&seg, &h).into_iter().enumerate() {
-                        if let Some(d) = o.get_mut(k + lead) {
+                    for (k, v) in convolve(seg, &h).into_iter().enumerate() {
+                        if let Some(d) = o.get_mut(first + k + lead) {
                             *d += v;
                         }
                     }
@@ -316,39 +318,52 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
         (Some(room), Motion::Rotate { .. }) => {
             // A moving source in a room: render short overlapping segments (50 ms, Hann cross-fade)
             // each with the response turned to the segment's centre azimuth (a shoebox's computed
-            // at the nearest place of a 5° grid).
+            // at the nearest place of a 5° grid). Turning mixes X and Y, so each segment is
+            // convolved with the place's unturned W, X, Y (their spectra computed once per place)
+            // and the results are turned.
             let hop = (0.025 * rate) as usize;
             let win = 2 * hop;
-            let mut start = 0usize;
-            let mut grid: std::collections::HashMap<i64, RoomResponse> =
+            let conv = SegmentConvolver::new(win, room.response_len());
+            let window: Vec<f64> = (0..win)
+                .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / win as f64).cos())
+                .collect();
+            let mut places: std::collections::HashMap<i64, ([Vec<Complex64>; 3], usize, f64)> =
                 std::collections::HashMap::new();
-            let rotated = match room {
-                TalkerRoom::Rotated(r) => Some(r),
-                TalkerRoom::ShoeBox(_) => None,
-            };
+            let mut start = 0usize;
             while start < spec.source.len() {
                 let centre_t = (start + lead + hop) as f64 / rate;
                 let az = spec.motion.azimuth_at(centre_t);
-                let response = match rotated {
-                    Some(r) => r,
-                    None => {
-                        let cell = (wrap180(az) / MOVING_GRID_DEG).round() as i64;
-                        grid.entry(cell)
-                            .or_insert_with(|| room.response(cell as f64 * MOVING_GRID_DEG))
-                    }
+                let cell = match room {
+                    TalkerRoom::Rotated(_) => 0,
+                    TalkerRoom::ShoeBox(_) => (wrap180(az) / MOVING_GRID_DEG).round() as i64,
                 };
-                let seg: Vec<f64> = (0..win)
-                    .map(|i| {
-                        let w = 0.5 - 0.5 * (2.0 * PI * i as f64 / win as f64).cos();
-                        spec.source.get(start + i).copied().unwrap_or(0.0) * w
-                    })
+                let (spectra, len, direct_deg) = places.entry(cell).or_insert_with(|| {
+                    let response = room.response(cell as f64 * MOVING_GRID_DEG);
+                    let (w, x, y) = response.parts();
+                    (
+                        [conv.spectrum(w), conv.spectrum(x), conv.spectrum(y)],
+                        w.len().max(x.len()).max(y.len()),
+                        response.direct_deg,
+                    )
+                });
+                let seg: Vec<f64> = window
+                    .iter()
+                    .enumerate()
+                    .map(|(i, w)| spec.source.get(start + i).copied().unwrap_or(0.0) * w)
                     .collect();
-                for (o, h) in out.iter_mut().zip(response.rotated(az)) {
-                    for (k, v) in convolve(&seg, &h).into_iter().enumerate() {
-                        if let Some(d) = o.get_mut(start + k + lead) {
-                            *d += v;
-                        }
+                let seg = conv.spectrum(&seg);
+                let n_out = win + *len - 1;
+                let [w, x, y] = spectra.each_ref().map(|h| conv.convolve(&seg, h, n_out));
+                let turn = (az - *direct_deg).to_radians();
+                let (c, s) = (turn.cos(), turn.sin());
+                for k in 0..n_out {
+                    let i = start + k + lead;
+                    if i >= total {
+                        break;
                     }
+                    out[0][i] += w[k];
+                    out[1][i] += x[k] * c - y[k] * s;
+                    out[2][i] += x[k] * s + y[k] * c;
                 }
                 start += hop;
             }

@@ -109,9 +109,15 @@ pub fn convolve(x: &[f64], h: &[f64]) -> Vec<f64> {
         return Vec::new();
     }
     let n = (x.len() + h.len() - 1).next_power_of_two();
-    let mut planner = FftPlanner::<f64>::new();
-    let fwd = planner.plan_fft_forward(n);
-    let inv = planner.plan_fft_inverse(n);
+    // One planner per thread: it keeps its plans, so convolutions of one size share twiddles.
+    thread_local! {
+        static PLANNER: std::cell::RefCell<FftPlanner<f64>> =
+            std::cell::RefCell::new(FftPlanner::new());
+    }
+    let (fwd, inv) = PLANNER.with(|p| {
+        let mut p = p.borrow_mut();
+        (p.plan_fft_forward(n), p.plan_fft_inverse(n))
+    });
     let pad = |v: &[f64]| {
         let mut b: Vec<Complex64> = v.iter().map(|r| Complex64::new(*r, 0.0)).collect();
         b.resize(n, Complex64::new(0.0, 0.0));
@@ -128,9 +134,68 @@ pub fn convolve(x: &[f64], h: &[f64]) -> Vec<f64> {
     a.iter().map(|c| c.re / n as f64).collect()
 }
 
+/// Convolution of many short segments with a few fixed responses (a moving source rendered in
+/// short pieces): one FFT size and plan for all of them, each response's spectrum computed once
+/// ([`SegmentConvolver::spectrum`]) and each segment's once ([`SegmentConvolver::segment`]), so a
+/// piece through k responses costs one forward and k inverse transforms.
+pub struct SegmentConvolver {
+    n: usize,
+    fwd: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    inv: std::sync::Arc<dyn rustfft::Fft<f64>>,
+}
+
+impl SegmentConvolver {
+    /// A convolver for segments of up to `segment_len` samples and responses of up to
+    /// `response_len` samples.
+    #[must_use]
+    pub fn new(segment_len: usize, response_len: usize) -> Self {
+        let n = (segment_len + response_len).max(2).next_power_of_two();
+        let mut planner = FftPlanner::<f64>::new();
+        Self {
+            n,
+            fwd: planner.plan_fft_forward(n),
+            inv: planner.plan_fft_inverse(n),
+        }
+    }
+
+    /// The zero-padded spectrum of `x` (a response or a segment; at most the lengths given to
+    /// [`SegmentConvolver::new`]).
+    #[must_use]
+    pub fn spectrum(&self, x: &[f64]) -> Vec<Complex64> {
+        let mut b: Vec<Complex64> = x.iter().map(|r| Complex64::new(*r, 0.0)).collect();
+        b.resize(self.n, Complex64::new(0.0, 0.0));
+        self.fwd.process(&mut b);
+        b
+    }
+
+    /// The convolution of a segment (its spectrum) with a response (its spectrum), the first
+    /// `len` samples (at most the FFT size; `segment + response − 1` gives the whole of it).
+    #[must_use]
+    pub fn convolve(&self, segment: &[Complex64], response: &[Complex64], len: usize) -> Vec<f64> {
+        let mut a: Vec<Complex64> = segment.iter().zip(response).map(|(p, q)| p * q).collect();
+        self.inv.process(&mut a);
+        let scale = 1.0 / self.n as f64;
+        a.iter().take(len).map(|c| c.re * scale).collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn segment_convolver_matches_convolve() {
+        let mut rng = Rng::new(3);
+        let h: Vec<f64> = (0..300).map(|_| rng.gaussian()).collect();
+        let seg: Vec<f64> = (0..80).map(|_| rng.gaussian()).collect();
+        let c = SegmentConvolver::new(80, 300);
+        let y = c.convolve(&c.spectrum(&seg), &c.spectrum(&h), 80 + 300 - 1);
+        let want = convolve(&seg, &h);
+        assert_eq!(y.len(), want.len());
+        for (a, b) in y.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+        }
+    }
 
     #[test]
     fn convolution_matches_direct() {
