@@ -224,11 +224,11 @@ impl TalkerRoom {
         }
     }
 
-    /// Length of the responses, samples.
+    /// Length of the responses (the longest of W, X, Y), samples.
     #[must_use]
     pub fn response_len(&self) -> usize {
         match self {
-            Self::Rotated(r) => r.w.len(),
+            Self::Rotated(r) => r.w.len().max(r.x.len()).max(r.y.len()),
             Self::ShoeBox(t) => ((t.length_s * f64::from(t.rate)) as usize).max(1),
         }
     }

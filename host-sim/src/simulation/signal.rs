@@ -162,6 +162,10 @@ impl SegmentConvolver {
     /// [`SegmentConvolver::new`]).
     #[must_use]
     pub fn spectrum(&self, x: &[f64]) -> Vec<Complex64> {
+        debug_assert!(
+            x.len() <= self.n,
+            "a segment or response longer than the FFT"
+        );
         let mut b: Vec<Complex64> = x.iter().map(|r| Complex64::new(*r, 0.0)).collect();
         b.resize(self.n, Complex64::new(0.0, 0.0));
         self.fwd.process(&mut b);
