@@ -135,9 +135,9 @@ pub fn convolve(x: &[f64], h: &[f64]) -> Vec<f64> {
 }
 
 /// Convolution of many short segments with a few fixed responses (a moving source rendered in
-/// short pieces): one FFT size and plan for all of them, each response's spectrum computed once
-/// ([`SegmentConvolver::spectrum`]) and each segment's once ([`SegmentConvolver::segment`]), so a
-/// piece through k responses costs one forward and k inverse transforms.
+/// short pieces): one FFT size and plan for all of them, each response's and each segment's
+/// spectrum computed once ([`SegmentConvolver::spectrum`]), so a piece through k responses costs
+/// one forward and k inverse transforms ([`SegmentConvolver::convolve`]).
 pub struct SegmentConvolver {
     n: usize,
     fwd: std::sync::Arc<dyn rustfft::Fft<f64>>,
