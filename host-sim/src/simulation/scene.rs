@@ -323,11 +323,12 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
             // and the results are turned.
             let hop = (0.025 * rate) as usize;
             let win = 2 * hop;
+            let n_out = win + room.response_len() - 1;
             let conv = SegmentConvolver::new(win, room.response_len());
             let window: Vec<f64> = (0..win)
                 .map(|i| 0.5 - 0.5 * (2.0 * PI * i as f64 / win as f64).cos())
                 .collect();
-            let mut places: std::collections::HashMap<i64, ([Vec<Complex64>; 3], usize, f64)> =
+            let mut places: std::collections::HashMap<i64, ([Vec<Complex64>; 3], f64)> =
                 std::collections::HashMap::new();
             let mut start = 0usize;
             while start < spec.source.len() {
@@ -337,12 +338,11 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
                     TalkerRoom::Rotated(_) => 0,
                     TalkerRoom::ShoeBox(_) => (wrap180(az) / MOVING_GRID_DEG).round() as i64,
                 };
-                let (spectra, len, direct_deg) = places.entry(cell).or_insert_with(|| {
+                let (spectra, direct_deg) = places.entry(cell).or_insert_with(|| {
                     let response = room.response(cell as f64 * MOVING_GRID_DEG);
                     let (w, x, y) = response.parts();
                     (
                         [conv.spectrum(w), conv.spectrum(x), conv.spectrum(y)],
-                        w.len().max(x.len()).max(y.len()),
                         response.direct_deg,
                     )
                 });
@@ -352,7 +352,6 @@ pub(crate) fn render_talker(spec: &SceneSpec, total: usize, lead: usize) -> [Vec
                     .map(|(i, w)| spec.source.get(start + i).copied().unwrap_or(0.0) * w)
                     .collect();
                 let seg = conv.spectrum(&seg);
-                let n_out = win + *len - 1;
                 let [w, x, y] = spectra.each_ref().map(|h| conv.convolve(&seg, h, n_out));
                 let turn = (az - *direct_deg).to_radians();
                 let (c, s) = (turn.cos(), turn.sin());
